@@ -1,0 +1,17 @@
+"""The tiny interface every baseline and learner implements."""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+
+class Agent(Protocol):
+    """``act(obs) -> action`` in the env's normalised action space; ``reset()`` between episodes."""
+
+    name: str
+
+    def act(self, observation: np.ndarray) -> np.ndarray: ...
+
+    def reset(self) -> None: ...

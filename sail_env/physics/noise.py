@@ -1,0 +1,105 @@
+"""Exact first and second moments of the planar model driven by white noise.
+
+Two disturbances act over the whole beam time:
+
+* **beam pointing jitter**: white noise on the beam's landing offset ``d`` with
+  two-sided power spectral density ``S_d`` [m² s] (additive: it enters
+  through the first column of ``B``);
+* **push fluctuation**: relative white noise ``ε`` on the push, ``F → F (1 + ε)``,
+  PSD ``S_F`` [s]. Every force term scales with ``F``, so this noise multiplies the
+  state: ``ds = (A s + B u) dt + (A_F s + B_F u) dW_F`` (Stratonovich, as befits
+  physical noise of short correlation time).
+
+For a linear system with additive and multiplicative white noise the second moment
+``M = E[x xᵀ]`` of the augmented state ``x = (s, 1)`` obeys a *linear* ODE
+(Itô form, with the Stratonovich drift correction ``½ S_F A_F²``)::
+
+    dM/dt = Ã M + M Ãᵀ + S_F Ã_F M Ã_Fᵀ + S_d b bᵀ M[-1, -1]
+
+so it is propagated exactly by one matrix exponential of the vectorised generator
+(after Van Loan 1978, IEEE TAC 23:395, who treats the additive case). The end state
+is then drawn from the Gaussian with these moments: exact for additive noise, a
+Gaussian closure with exact mean and covariance for the multiplicative part.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import scipy.linalg
+
+from sail_env.physics.planar import PlanarModel
+
+
+@dataclasses.dataclass(frozen=True)
+class WhiteNoise:
+    """Continuous-time white-noise intensities (two-sided PSDs).
+
+    Attributes:
+        beam_jitter_psd_m2s: PSD of the beam landing offset [m² s]. A per-step random
+            offset of standard deviation σ held for ``dt`` has ``σ² dt``.
+        push_psd_s: PSD of the relative push fluctuation [s]; per step ``σ_F² dt``.
+    """
+
+    beam_jitter_psd_m2s: float = 0.0
+    push_psd_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("beam_jitter_psd_m2s", "push_psd_s"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0, got {value}")
+
+    @classmethod
+    def from_step_std(cls, jitter_std_m: float, push_std: float, dt: float) -> "WhiteNoise":
+        """Intensities that match per-step noise of the given standard deviations."""
+        return cls(jitter_std_m**2 * dt, push_std**2 * dt)
+
+
+def moment_generator(model: PlanarModel, action: np.ndarray, noise: WhiteNoise) -> np.ndarray:
+    """The 25x25 matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``)."""
+    a_push, b_push = model.push_sensitivity
+    drift = np.zeros((5, 5))
+    drift[:4, :4] = model.A
+    drift[:4, 4] = model.B @ action
+    mult = np.zeros((5, 5))
+    mult[:4, :4] = a_push
+    mult[:4, 4] = b_push @ action
+    drift = drift + 0.5 * noise.push_psd_s * mult @ mult
+    eye = np.eye(5)
+    gen = np.kron(drift, eye) + np.kron(eye, drift) + noise.push_psd_s * np.kron(mult, mult)
+    jitter = np.zeros((5, 5))
+    jitter[:4, :4] = noise.beam_jitter_psd_m2s * np.outer(model.B[:, 0], model.B[:, 0])
+    gen[:, 24] += jitter.ravel()
+    return gen
+
+
+def propagate_moments(model: PlanarModel, mean: np.ndarray, cov: np.ndarray,
+                      action: np.ndarray, duration: float,
+                      noise: WhiteNoise) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance of the state after ``duration`` s with ``action`` held."""
+    if not duration >= 0:
+        raise ValueError(f"duration must be >= 0, got {duration}")
+    action = np.asarray(action, dtype=float)
+    if noise.beam_jitter_psd_m2s == 0 and noise.push_psd_s == 0:
+        # Noise-free: the exact propagator, free of the cancellation in M − mean meanᵀ.
+        phi, gamma = model.discretize(duration)
+        return phi @ mean + gamma @ action, phi @ cov @ phi.T
+    second = np.zeros((5, 5))
+    second[:4, :4] = cov + np.outer(mean, mean)
+    second[:4, 4] = second[4, :4] = mean
+    second[4, 4] = 1.0
+    gen = moment_generator(model, action, noise)
+    second = (scipy.linalg.expm(gen * duration) @ second.ravel()).reshape(5, 5)
+    new_mean = second[:4, 4].copy()
+    new_cov = second[:4, :4] - np.outer(new_mean, new_mean)
+    new_cov = 0.5 * (new_cov + new_cov.T)
+    return new_mean, new_cov
+
+
+def sample_gaussian(rng: np.random.Generator, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """One draw from N(mean, cov) for a possibly singular PSD covariance."""
+    eigval, eigvec = np.linalg.eigh(cov)
+    scale = np.sqrt(np.clip(eigval, 0.0, None))
+    return mean + eigvec @ (scale * rng.standard_normal(len(mean)))

@@ -1,0 +1,173 @@
+"""The seed paper's planar beam-riding model as a linear time-invariant system.
+
+State ``s = (X, Vx, θ, ω)``: lateral offset of the CoM from the target line [m], its
+rate [m/s], tilt of the sail axis [rad], its rate [rad/s]. Input ``u = (d, ψ)``: the
+lateral offset of the beam axis at the CoM's range [m] and the beam's tilt [rad].
+
+Seed eqs 16-17 (Team 258, with ``Lr ≈ Lc`` for ``a ≪ R``) and, for ``R → ∞``, 18-19::
+
+    m Ẍ = F θ − k F Δ / R
+    I θ̈ = −k F (Lc/R − 1) Δ,        Δ = X − d + Lc (θ − ψ),   k = 1/2
+
+Derivation of the inputs. A perfect reflector is pushed along each element's normal,
+so the net force leaves along the normal at the centroid of the lit patch, and for a
+sphere every normal passes through the centre of curvature C, which sits at
+``CoM + (Lc − R)·n`` (``n`` the sail axis, pointing away from the laser). The lit
+patch is the overlap of the flat-top beam disc with the aperture; its centroid lies
+half-way (``k = 1/2``) between the beam axis and the sail axis, which is where the
+seed's factor ½ comes from. ``Δ`` is the distance from the beam axis to the sail
+vertex: the vertex is at ``X + Lc θ``, the beam axis crosses its plane at ``d + Lc ψ``. To first order
+the force's direction depends only on the sail's own tilt (``F θ``) and on where the
+beam lands (``Δ``), not on the beam's angle of incidence: **the two inputs enter only
+through the landing point ``d + Lc ψ``**, so ``B`` has rank one in this model. The
+torque about the CoM is that of a force through C, ``(Lc − R) (F_x − θ F)``, which
+gives the second equation; at ``Lc = R`` it vanishes identically and θ is neither
+restored nor controllable.
+
+The model is linear and time invariant while ``F`` is constant, so a step of any
+length is exact with the matrix exponential (zero-order hold on the input).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import functools
+
+import numpy as np
+import scipy.linalg
+
+from sail_env.physics.config import SailConfig
+
+#: Centroid factor of the lit lens between a flat-top beam and the aperture (seed eq 14).
+OVERLAP_CENTROID_FACTOR = 0.5
+
+STATE_NAMES = ("x", "vx", "theta", "omega")
+INPUT_NAMES = ("beam_offset", "beam_tilt")
+X, VX, THETA, OMEGA = range(4)
+
+
+class StabilityKind(str, enum.Enum):
+    """Passive behaviour of the linear model."""
+
+    UNSTABLE = "unstable"  # a mode grows exponentially (real or complex pair)
+    NEUTRAL = "neutral"  # no divergence, but some direction has no restoring force
+    OSCILLATION = "undamped oscillation"  # every mode is an undamped oscillation
+
+
+@dataclasses.dataclass(frozen=True)
+class Stability:
+    """Eigen-analysis of the 4x4 system matrix.
+
+    Attributes:
+        kind: Classification (see :class:`StabilityKind`).
+        eigenvalues: The four eigenvalues [1/s], exact from the 2x2 stiffness problem.
+        growth_rate: Largest real part [1/s] (0 when nothing grows).
+        frequencies: Angular frequencies of the oscillating modes [rad/s], ascending.
+    """
+
+    kind: StabilityKind
+    eigenvalues: np.ndarray
+    growth_rate: float
+    frequencies: tuple[float, ...]
+
+
+class PlanarModel:
+    """``ds/dt = A s + B u`` for one :class:`SailConfig` (one model, many consumers)."""
+
+    def __init__(self, config: SailConfig) -> None:
+        self.config = config
+        force, mass = config.push_force_n, config.total_mass_kg
+        inertia, lc = config.moment_of_inertia_kg_m2, config.com_distance_m
+        k, kappa = OVERLAP_CENTROID_FACTOR, config.curvature_per_m
+        # Lc/R − 1 is computed as written so that Lc == R gives an exact zero torque.
+        torque_factor = lc / config.curvature_radius_m - 1.0
+        # d(acceleration)/d(Δ): the lateral force and torque per metre of landing offset.
+        force_per_offset = -k * force * kappa / mass
+        torque_per_offset = -k * force * torque_factor / inertia
+        a = np.zeros((4, 4))
+        a[X, VX] = 1.0
+        a[THETA, OMEGA] = 1.0
+        a[VX, X] = force_per_offset
+        a[VX, THETA] = force / mass + force_per_offset * lc
+        a[OMEGA, X] = torque_per_offset
+        a[OMEGA, THETA] = torque_per_offset * lc
+        b = np.zeros((4, 2))
+        b[VX] = (-force_per_offset, -force_per_offset * lc)
+        b[OMEGA] = (-torque_per_offset, -torque_per_offset * lc)
+        self.A = a
+        self.B = b
+        self.A.setflags(write=False)
+        self.B.setflags(write=False)
+
+    @property
+    def push_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(∂A/∂ln F, ∂B/∂ln F)``: every force term scales with the push ``F``."""
+        a_push = self.A.copy()
+        a_push[X, VX] = 0.0
+        a_push[THETA, OMEGA] = 0.0
+        return a_push, self.B.copy()
+
+    @functools.cached_property
+    def stiffness(self) -> np.ndarray:
+        """``K`` in ``q̈ = −K q`` for ``q = (X, θ)`` (so ``λ² = eig(−K)``)."""
+        return -self.A[np.ix_([VX, OMEGA], [X, THETA])]
+
+    @functools.cached_property
+    def stability(self) -> Stability:
+        """Eigenvalues from ``λ² = μ``, ``μ ∈ eig(−K)``, which keeps the double zero exact."""
+        stiffness = self.stiffness
+        mu = np.linalg.eigvals(-stiffness).astype(complex)
+        scale = max(float(np.abs(stiffness).max()), 1e-300)
+        mu = np.where(np.abs(mu) <= 1e-12 * scale, 0.0, mu)
+        roots = np.sqrt(mu)
+        eigenvalues = np.concatenate([roots, -roots])
+        growth = float(max(eigenvalues.real.max(), 0.0))
+        flutter = np.abs(mu.imag) > 1e-12 * scale
+        frequencies = tuple(sorted(float(r.imag) for r, f in zip(roots, flutter)
+                                   if r.imag > 0 and not f))
+        if growth > 0.0:
+            kind = StabilityKind.UNSTABLE
+        elif np.any(mu == 0.0):
+            kind = StabilityKind.NEUTRAL
+        else:
+            kind = StabilityKind.OSCILLATION
+        return Stability(kind, eigenvalues, growth, frequencies)
+
+    @functools.cached_property
+    def controllable_basis(self) -> np.ndarray:
+        """Orthonormal basis (columns) of the controllable subspace ``range[B, AB, A²B, A³B]``."""
+        blocks = [self.B]
+        for _ in range(3):
+            blocks.append(self.A @ blocks[-1])
+        ctrb = np.hstack(blocks)
+        u, sv, _ = np.linalg.svd(ctrb)
+        rank = int(np.sum(sv > 1e-10 * sv[0])) if sv[0] > 0 else 0
+        return u[:, :rank]
+
+    @property
+    def is_controllable(self) -> bool:
+        return self.controllable_basis.shape[1] == 4
+
+    def discretize(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Exact zero-order-hold step ``s⁺ = Φ s + Γ u`` over ``dt`` seconds.
+
+        ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] dt)`` (the augmented exponential).
+        """
+        return zoh_discretize(self.A, self.B, dt)
+
+    def equilibrium_speed(self, t: float) -> float:
+        """Axial speed ``Vz = F t / m`` [m/s] (Newtonian, as in the seed's planar model)."""
+        return self.config.axial_acceleration_m_s2 * t
+
+
+def zoh_discretize(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-order-hold discretisation of ``ẋ = a x + b u`` over ``dt``."""
+    if not dt >= 0:
+        raise ValueError(f"dt must be >= 0, got {dt}")
+    n, m = b.shape
+    augmented = np.zeros((n + m, n + m))
+    augmented[:n, :n] = a
+    augmented[:n, n:] = b
+    exp = scipy.linalg.expm(augmented * dt)
+    return exp[:n, :n], exp[:n, n:]
