@@ -5,10 +5,10 @@
 
 | effect | size | physical meaning |
 |--------|------|------------------|
-| control start | 10 s into the flight | sail 5,000 km out, one-way light delay 17-20 ms (0.2 period) |
-| light delay | ``D(t)/c`` each way | observation and command lag, 7-8 control steps round trip |
-| sensor noise | 0.2 mm, 14 mm/s, 20 µrad, 1.4 mrad/s | 2 % of the observation scales |
-| beam jitter | 15 µm per 5 ms step (PSD 1.1e-12 m² s) | 3 prad of ground pointing jitter at 5,000 km; over the 590 s coast it alone leaves σ(V⊥) ≈ 0.43 m/s, 0.7 × the 10 nrad tolerance |
+| control start | 10 s into the flight | sail 5,000 km out, one-way light delay 17-20 ms |
+| light delay | ``D(t)/c`` each way | 3-4 control steps each way; the round trip is 0.35-0.45 of the slow mode's period and 0.6-0.8 of the fast one's |
+| sensor noise | 0.2 mm, 14 mm/s, 20 µrad, 1.4 mrad/s | ~2 % of the X and θ observation scales |
+| beam jitter | 15 µm per 5 ms step (PSD 1.1e-12 m² s) | 3 prad of ground pointing jitter at 5,000 km; over the 590 s coast it alone leaves σ(V⊥) ≈ 0.21 m/s (3.4 nrad) |
 | push noise | 1 % per 5 ms step | laser power fluctuation |
 | cut-off time | 600 s ± 5 s | the phase of the oscillation at cut-off is unknown |
 | parameters | ±10 % | masses, strut and CoM lengths, radius of curvature |
