@@ -1,0 +1,143 @@
+import math
+
+import numpy as np
+import pytest
+import scipy.integrate
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sail_env.physics import DEEP_DISH, FLAT, SEED, PlanarModel, SailConfig, StabilityKind
+from tests.conftest import seed_rhs
+
+
+def test_matrices_match_the_seed_equations():
+    rng = np.random.default_rng(1)
+    for config in (SEED, DEEP_DISH, FLAT, SEED.replace(curvature_radius_m=15.0)):
+        model = PlanarModel(config)
+        for _ in range(5):
+            state = rng.normal(size=4) * [1e-2, 1.0, 1e-3, 0.1]
+            beam = rng.normal(size=2) * [1e-2, 1e-3]
+            np.testing.assert_allclose(model.A @ state + model.B @ beam, seed_rhs(config, state, beam),
+                                       rtol=1e-12, atol=1e-12)
+
+
+def test_seed_eigenvalues_are_pm_70_71i_and_a_double_zero():
+    stability = PlanarModel(SEED).stability
+    omega = math.sqrt(0.5 * 100.0 / (1e-3 * 10.0))  # sqrt(F / (2 m R))
+    assert omega == pytest.approx(70.71, abs=5e-3)
+    np.testing.assert_allclose(sorted(stability.eigenvalues.imag), [-omega, 0, 0, omega], atol=1e-9)
+    np.testing.assert_allclose(stability.eigenvalues.real, 0, atol=1e-12)
+    assert stability.kind is StabilityKind.NEUTRAL
+    # Independent: numpy's general eigensolver on A.
+    np.testing.assert_allclose(sorted(np.abs(np.linalg.eigvals(PlanarModel(SEED).A))),
+                               [0, 0, omega, omega], atol=1e-5)
+
+
+def test_flat_sail_is_unstable_at_100_per_second():
+    stability = PlanarModel(FLAT).stability
+    assert stability.kind is StabilityKind.UNSTABLE
+    assert stability.growth_rate == pytest.approx(100.0, rel=1e-12)
+    assert max(np.linalg.eigvals(PlanarModel(FLAT).A).real) == pytest.approx(100.0, rel=1e-9)
+
+
+def test_com_between_sail_and_centre_of_curvature_is_exponentially_unstable():
+    model = PlanarModel(SEED.replace(curvature_radius_m=15.0))
+    assert model.stability.kind is StabilityKind.UNSTABLE
+    assert model.stability.growth_rate == pytest.approx(57.735, abs=1e-3)
+    assert max(np.linalg.eigvals(model.A).real) == pytest.approx(model.stability.growth_rate, rel=1e-9)
+
+
+def test_deep_dish_has_two_undamped_oscillations():
+    stability = PlanarModel(DEEP_DISH).stability
+    assert stability.kind is StabilityKind.OSCILLATION
+    assert len(stability.frequencies) == 2
+    np.testing.assert_allclose(sorted(np.abs(np.linalg.eigvals(PlanarModel(DEEP_DISH).A).imag))[::2],
+                               stability.frequencies, rtol=1e-9)
+
+
+@pytest.mark.parametrize("ratio, kind", [(0.3, StabilityKind.OSCILLATION), (0.7, StabilityKind.OSCILLATION),
+                                         (1.0, StabilityKind.NEUTRAL), (1.2, StabilityKind.UNSTABLE),
+                                         (3.0, StabilityKind.UNSTABLE)])
+def test_stability_map_over_r_over_lc(ratio, kind):
+    model = PlanarModel(SEED.replace(curvature_radius_m=ratio * SEED.com_distance_m))
+    assert model.stability.kind is kind
+    # Never damped: no eigenvalue has a negative real part without its mirror image.
+    eig = np.linalg.eigvals(model.A)
+    assert max(eig.real) >= -1e-9
+
+
+def test_tilt_is_uncontrollable_when_lc_equals_r():
+    model = PlanarModel(SEED)
+    assert model.controllable_basis.shape[1] == 2
+    assert not model.is_controllable
+    # The controllable subspace is (X, Vx): θ and ω are untouched by any beam input.
+    np.testing.assert_allclose(model.controllable_basis[[2, 3]], 0, atol=1e-12)
+    np.testing.assert_array_equal(model.A[3], 0)
+    np.testing.assert_array_equal(model.B[3], 0)
+    assert PlanarModel(DEEP_DISH).is_controllable
+
+
+def test_beam_offset_and_tilt_act_through_the_landing_point():
+    model = PlanarModel(DEEP_DISH)
+    lc = DEEP_DISH.com_distance_m
+    np.testing.assert_allclose(model.B[:, 1], lc * model.B[:, 0], rtol=1e-14)
+    assert np.linalg.matrix_rank(model.B) == 1
+
+
+def test_exact_propagation_matches_solve_ivp():
+    for config in (SEED, DEEP_DISH, FLAT):
+        model = PlanarModel(config)
+        state = np.array([1e-3, 0.05, 2e-4, 1e-3])
+        beam = np.array([2e-3, -1e-4])
+        dt = 0.137
+        phi, gamma = model.discretize(dt)
+        sol = scipy.integrate.solve_ivp(lambda t, s: seed_rhs(config, s, beam), (0, dt), state,
+                                        method="DOP853", rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(phi @ state + gamma @ beam, sol.y[:, -1], rtol=1e-9, atol=1e-14)
+
+
+def test_seed_figure5_amplitudes():
+    """Seed Fig 5: (X, θ) = (1e-5 m, 1e-3 rad) oscillates between 1e-5 m and ~2 cm; (1e-6, 1e-4) ~2 mm."""
+    model = PlanarModel(SEED)
+    phi, _ = model.discretize(1e-3)
+    for x0, theta0, top in ((1e-5, 1e-3, 0.02), (1e-6, 1e-4, 0.002)):
+        state = np.array([x0, 0.0, theta0, 0.0])
+        xs = [x0]
+        for _ in range(200):  # two periods
+            state = phi @ state
+            xs.append(state[0])
+        assert min(xs) == pytest.approx(x0, rel=1e-9)
+        assert max(xs) == pytest.approx(top, rel=0.01)
+        # Analytic: X oscillates about X_eq = θ (2R − Lc) with amplitude |X0 − X_eq|.
+        x_eq = theta0 * (2 * SEED.curvature_radius_m - SEED.com_distance_m)
+        assert max(xs) == pytest.approx(2 * x_eq - x0, rel=1e-3)  # 1 ms sampling of an 89 ms period
+
+
+def test_discretize_rejects_negative_step():
+    with pytest.raises(ValueError, match="dt"):
+        PlanarModel(SEED).discretize(-1.0)
+
+
+configs = st.builds(
+    SailConfig,
+    aperture_radius_m=st.floats(0.1, 5.0),
+    curvature_radius_m=st.one_of(st.just(math.inf), st.floats(5.0, 100.0)),
+    com_distance_m=st.floats(0.5, 20.0),
+    strut_length_m=st.just(40.0),
+    sail_mass_kg=st.floats(1e-5, 1e-2),
+    craft_mass_kg=st.floats(1e-5, 1e-2),
+    push_force_n=st.floats(1.0, 1e3),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(configs)
+def test_random_valid_configurations_stay_finite(config):
+    model = PlanarModel(config)
+    assert np.all(np.isfinite(model.A)) and np.all(np.isfinite(model.B))
+    stability = model.stability
+    assert np.all(np.isfinite(stability.eigenvalues)) and stability.growth_rate >= 0
+    eig = np.linalg.eigvals(model.A)
+    assert max(eig.real) == pytest.approx(stability.growth_rate, rel=1e-6, abs=1e-6 * max(1, abs(eig).max()))
+    phi, gamma = model.discretize(config.control_step_s)
+    assert np.all(np.isfinite(phi)) and np.all(np.isfinite(gamma))
