@@ -192,7 +192,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         nominal = self.nominal_config
         names = ("sail_mass_kg", "craft_mass_kg", "strut_length_m", "com_distance_m", "curvature_radius_m")
         factors = self.np_random.uniform(1 - spread, 1 + spread, len(names))
-        return nominal.replace(**{n: getattr(nominal, n) * f for n, f in zip(names, factors)})
+        return nominal.replace(**{n: float(getattr(nominal, n) * f) for n, f in zip(names, factors)})
 
     def _time(self, step: int) -> float:
         return self.config.control_start_s + step * self.config.control_step_s

@@ -90,3 +90,9 @@ class SailRenderer:
         ax.set_title("sail on its beam (lateral motion exaggerated)", fontsize=8)
         ax.set_xticks([])
         ax.set_yticks([])
+
+    def close(self) -> None:
+        if self.render_mode == "human":
+            import matplotlib.pyplot as plt
+
+            plt.close(self.figure)
