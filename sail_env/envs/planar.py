@@ -341,10 +341,12 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         return phi @ state + gamma @ beam_input
 
     def _check_divergence(self, state: np.ndarray) -> bool:
+        """Whether the sail has left the beam or the small-angle regime (NaN counts as left)."""
         radius = self.config.aperture_radius_m
-        lever = self.config.com_distance_m
-        return bool(not np.all(np.isfinite(state)) or abs(state[X]) > radius
-                    or abs(lever * state[THETA]) > radius or abs(state[THETA]) > MAX_TILT_RAD)
+        x, theta = float(state[X]), float(state[THETA])
+        inside = (abs(x) <= radius and abs(self.config.com_distance_m * theta) <= radius
+                  and abs(theta) <= MAX_TILT_RAD)
+        return not inside
 
     def _coast(self) -> tuple[np.ndarray | None, np.ndarray]:
         """From the end of the window to cut-off: commands in flight, then the last held.
@@ -387,8 +389,8 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
             sent = self._commands[::-1][: self.history_length]
             if sent:
                 recent[: len(sent)] = np.array(sent) / self.action_scale
+        # Finite: one step ago the state was inside the beam, and one linear step keeps it finite.
         obs = np.concatenate([measured / self.state_scale, [progress], recent.ravel()])
-        obs = np.nan_to_num(obs, nan=0.0, posinf=OBSERVATION_LIMIT, neginf=-OBSERVATION_LIMIT)
         return np.clip(obs, -OBSERVATION_LIMIT, OBSERVATION_LIMIT).astype(np.float32)
 
     def _info(self) -> dict[str, Any]:
@@ -404,4 +406,4 @@ def _log_ratio(pointing: float) -> float:
     low, high = LOG_RATIO_RANGE
     if pointing <= 0:
         return low
-    return float(np.clip(math.log10(pointing / POINTING_TOLERANCE_RAD), low, high))
+    return min(max(math.log10(pointing / POINTING_TOLERANCE_RAD), low), high)
