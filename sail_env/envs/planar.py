@@ -92,15 +92,17 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     - at the last step, in addition: ``-ρ(pointing at cut-off) + 1`` if it succeeds;
     - on divergence: ``-10`` and the episode terminates.
 
-    A perfect controller collects about ``+5``; the passive seed sail about ``-1`` to ``+3``.
+    On LightSail-v0 LQR collects about ``+4.9`` per episode, the passive sail ``+0.9``.
 
     ## Starting State
 
     At launch, uniform in ``X ∈ ±5 mm, Vx ∈ ±0.1 m/s, θ ∈ ±2 mrad, ω ∈ ±10 µrad/s``
-    (``reset(options={"initial_state": {...}})`` sets it; missing keys are zero). With
-    ``control_start_s > 0`` the state is propagated (with the disturbances) from launch to
-    the start of control. The distribution makes the passive seed sail fail on about
-    half of the episodes.
+    (``start_half_widths``; the deep-dish tasks use ±3 cm and ±0.6 m/s laterally, see
+    ``sail_env.tasks``); ``reset(options={"initial_state": {...}})`` sets it instead
+    (missing keys are zero). With ``control_start_s > 0`` the state is propagated, with
+    the disturbances, from launch to the start of control. At the seed sail, a tilt θ
+    moves the equilibrium to ``X = θ (2R − Lc)`` = 2 cm per 2 mrad, so the passive sail
+    fails on about 40 % of these starts.
 
     ## Episode End
 

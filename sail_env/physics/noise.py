@@ -28,6 +28,7 @@ import dataclasses
 
 import numpy as np
 import scipy.linalg
+import scipy.stats
 
 from sail_env.physics.planar import PlanarModel
 
@@ -103,3 +104,20 @@ def sample_gaussian(rng: np.random.Generator, mean: np.ndarray, cov: np.ndarray)
     eigval, eigvec = np.linalg.eigh(cov)
     scale = np.sqrt(np.clip(eigval, 0.0, None))
     return mean + eigvec @ (scale * rng.standard_normal(len(mean)))
+
+
+def tolerable_jitter_psd(model: PlanarModel, duration: float, tolerance_rad: float,
+                         cutoff_s: float, probability: float = 0.95) -> float:
+    """Largest beam-jitter PSD [m² s] that keeps ``|V⊥|/Vz ≤ tolerance_rad`` at cut-off
+    with the given probability, for a sail that is perfectly on the beam ``duration``
+    seconds before cut-off and then left to the jitter (PHYSICS.md §3).
+
+    The velocity variance is linear in the PSD, so one unit-PSD propagation suffices.
+    """
+    if not 0 < probability < 1:
+        raise ValueError(f"probability must be in (0, 1), got {probability}")
+    _, unit_cov = propagate_moments(model, np.zeros(4), np.zeros((4, 4)), np.zeros(2), duration,
+                                    WhiteNoise(beam_jitter_psd_m2s=1.0))
+    quantile = float(scipy.stats.norm.ppf(0.5 + probability / 2))
+    allowed_speed = tolerance_rad * model.equilibrium_speed(cutoff_s) / quantile
+    return allowed_speed**2 / unit_cov[1, 1]

@@ -74,3 +74,21 @@ def test_noise_validation():
         WhiteNoise(push_psd_s=-1.0)
     with pytest.raises(ValueError, match="duration"):
         propagate_moments(PlanarModel(SEED), np.zeros(4), np.zeros((4, 4)), np.zeros(2), -1.0, WhiteNoise())
+
+
+def test_tolerable_jitter_matches_the_driven_oscillator():
+    """At the seed point only the X oscillator feels the jitter: E[Vx²] = b² S (t/2 + sin 2ωt / 4ω)."""
+    from sail_env.physics.noise import tolerable_jitter_psd
+
+    model = PlanarModel(SEED)
+    b = model.B[1, 0]
+    omega = model.stability.frequencies[0]
+    t = 590.0
+    unit_variance = b**2 * (t / 2 + np.sin(2 * omega * t) / (4 * omega))
+    expected = (1e-8 * 6e7 / 1.959964) ** 2 / unit_variance
+    assert tolerable_jitter_psd(model, t, 1e-8, 600.0) == pytest.approx(expected, rel=1e-6)
+    # Check the definition by sampling: 95 % of the draws stay inside the tolerance.
+    psd = tolerable_jitter_psd(model, t, 1e-8, 600.0)
+    _, cov = propagate_moments(model, np.zeros(4), np.zeros((4, 4)), np.zeros(2), t, WhiteNoise(psd))
+    draws = np.random.default_rng(0).normal(0, np.sqrt(cov[1, 1]), 100_000)
+    assert np.mean(np.abs(draws) / 6e7 <= 1e-8) == pytest.approx(0.95, abs=0.005)
