@@ -137,8 +137,9 @@ SEED = SailConfig()
 
 #: Centre of curvature between the sail and the CoM (R < Lc): two undamped coupled modes
 #: (70.7 and 122.5 rad/s). R = 4 m keeps the modes apart: near R ≈ 6.7 m their
-#: frequencies cross, and a ±10 % spread of masses and lengths makes them coalesce into
-#: a growing oscillation (flutter; at R = 7 m in ~4 % of draws, at 8 m in ~20 %).
+#: frequencies cross, and a ±10 % spread of masses and lengths (a strut shorter than
+#: 2 Lc) makes them coalesce into a growing oscillation (flutter; at R = 7 m in a few per
+#: cent of draws, at 8 m in ~20 %).
 DEEP_DISH = SailConfig(curvature_radius_m=4.0)
 
 #: The seed's flat sail (R -> inf, seed eqs 18-19): exponentially unstable.

@@ -33,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import functools
+import math
 
 import numpy as np
 import scipy.linalg
@@ -115,17 +116,30 @@ class PlanarModel:
 
     @functools.cached_property
     def stability(self) -> Stability:
-        """Eigenvalues from ``λ² = μ``, ``μ ∈ eig(−K)``, which keeps the double zero exact."""
-        stiffness = self.stiffness
-        mu = np.linalg.eigvals(-stiffness).astype(complex)
-        scale = max(float(np.abs(stiffness).max()), 1e-300)
+        """Eigenvalues ``λ = ±√μ`` with ``μ`` the roots of the 2x2 ``−K``, in closed form.
+
+        The closed form keeps the double zero at ``Lc = R`` exact and, where the two mode
+        frequencies cross (a double ``μ``), avoids the √eps splitting a general
+        eigensolver makes of a defective matrix. A negative discriminant is flutter:
+        the modes coalesce into a growing oscillation.
+        """
+        m = -self.stiffness
+        scale = max(float(np.abs(m).max()), 1e-300)
+        trace, det = m[0, 0] + m[1, 1], m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+        disc = (m[0, 0] - m[1, 1]) ** 2 + 4.0 * m[0, 1] * m[1, 0]
+        if abs(disc) <= 1e-12 * scale**2:
+            disc = 0.0
+        if disc >= 0:
+            # The larger root without cancellation, the other from the product of roots.
+            big = 0.5 * (trace + math.copysign(math.sqrt(disc), trace))
+            mu = np.array([big, det / big if big != 0 else 0.0], dtype=complex)
+        else:
+            mu = 0.5 * (trace + np.array([1j, -1j]) * math.sqrt(-disc))
         mu = np.where(np.abs(mu) <= 1e-12 * scale, 0.0, mu)
         roots = np.sqrt(mu)
         eigenvalues = np.concatenate([roots, -roots])
-        growth = float(max(eigenvalues.real.max(), 0.0))
-        flutter = np.abs(mu.imag) > 1e-12 * scale
-        frequencies = tuple(sorted(float(r.imag) for r, f in zip(roots, flutter)
-                                   if r.imag > 0 and not f))
+        growth = float(max(eigenvalues.real.max(), 0.0)) + 0.0  # + 0.0 turns -0.0 into 0.0
+        frequencies = tuple(sorted(float(r.imag) for r in roots if r.imag > 0 and disc >= 0))
         if growth > 0.0:
             kind = StabilityKind.UNSTABLE
         elif np.any(mu == 0.0):

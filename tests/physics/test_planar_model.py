@@ -141,3 +141,20 @@ def test_random_valid_configurations_stay_finite(config):
     assert max(eig.real) == pytest.approx(stability.growth_rate, rel=1e-6, abs=1e-6 * max(1, abs(eig).max()))
     phi, gamma = model.discretize(config.control_step_s)
     assert np.all(np.isfinite(phi)) and np.all(np.isfinite(gamma))
+
+
+def test_frequency_crossing_is_not_reported_as_growth():
+    """At R = 2 Lc / 3 (L = 2 Lc) the two modes share one frequency; no flutter (discriminant ≥ 0)."""
+    model = PlanarModel(SEED.replace(curvature_radius_m=20.0 / 3.0))
+    stability = model.stability
+    assert stability.kind is StabilityKind.OSCILLATION and stability.growth_rate == 0.0
+    np.testing.assert_allclose(stability.frequencies, [70.7107] * 2, rtol=1e-5)
+
+
+def test_a_shorter_strut_near_the_crossing_flutters():
+    config = SEED.replace(curvature_radius_m=6.75, strut_length_m=19.0)
+    stability = PlanarModel(config).stability
+    assert stability.kind is StabilityKind.UNSTABLE
+    eig = np.linalg.eigvals(PlanarModel(config).A)
+    assert stability.growth_rate == pytest.approx(max(eig.real), rel=1e-6)
+    assert np.all(np.abs(eig.imag) > 0)  # a growing oscillation, not a divergence
