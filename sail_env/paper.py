@@ -379,7 +379,7 @@ def differences(report: dict) -> list[dict]:
         {"topic": "distance at cut-off",
          "seed": f"~{SEED_CLAIMS['distance_at_cutoff_m'] / 1e3:.0e} km",
          "here": f"{mis['distance_at_cutoff_m'] / 1e3:.2e} km",
-         "cause": "rounding",
+         "cause": "an order-of-magnitude statement",
          "size": f"×{mis['distance_at_cutoff_m'] / SEED_CLAIMS['distance_at_cutoff_m']:.1f}"},
     ]
 
@@ -432,10 +432,10 @@ def render_markdown(report: dict) -> str:
         f"{stab['growth_rate_R_1pc_above_Lc_s-1']:.2f} /s; deep dish (R = 4 m): "
         f"{', '.join(f'{f:.1f}' for f in stab['deep_dish_frequencies_rad_s'])} rad/s; flat: "
         f"{stab['flat_growth_rate_s-1']:.1f} /s. Over the scan and the map, unstable for every R > Lc: "
-        f"{stab['unstable_for_every_R_above_Lc']}. For R < Lc two undamped oscillations: the largest growth "
-        f"rate found there, {stab['max_growth_rate_R_below_Lc_s-1']:.1e} /s, is rounding where the two "
-        f"frequencies cross (R ≈ {stab['frequency_crossing_R_over_Lc']:.3f} Lc at L = 2 Lc): the modes are "
-        "degenerate there and the oscillation grows linearly in time instead. No geometry damps.",
+        f"{stab['unstable_for_every_R_above_Lc']}. For R < Lc two undamped oscillations (largest growth "
+        f"rate found there: {stab['max_growth_rate_R_below_Lc_s-1']:.1e} /s); their frequencies cross at "
+        f"R ≈ {stab['frequency_crossing_R_over_Lc']:.3f} Lc (L = 2 Lc), where a strut shorter than 2 Lc "
+        "turns them into flutter. No geometry damps.",
         "",
         "## Pointing verdict (`pointing_tolerance.png`)",
         "",
