@@ -35,8 +35,8 @@ from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
 
 import sail_env  # noqa: F401  (registers the env ids)
-from agents.sb3 import (ALGOS, ModelLoadError, load_hyperparams, normalize_kwargs,
-                        normalizer_path, policy_kwargs, save_model, versions)
+from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, load_hyperparams, normalize_kwargs,
+                        normalizer_path, save_model, versions)
 
 CHECKPOINT_PREFIX = "rl_model"
 #: Evaluation episodes during training are seeded apart from the training envs and from
@@ -56,7 +56,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--out", type=Path, help="run directory (default runs/<env>-<algo>-<seed>)")
     parser.add_argument("--config", type=Path, help="Zoo-style hyperparameter YAML keyed by env id")
     parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its latest checkpoint")
-    parser.add_argument("--eval-freq", type=int, default=25_000, help="evaluate every N steps (<= 0: never)")
+    parser.add_argument("--eval-freq", type=int, default=50_000, help="evaluate every N steps (<= 0: never)")
     parser.add_argument("--eval-episodes", type=int, default=100)
     parser.add_argument("--save-freq", type=int, default=50_000, help="checkpoint every N steps")
     parser.add_argument("--no-progress-bar", action="store_true")
@@ -171,7 +171,6 @@ def main(argv: list[str] | None = None) -> int:
     # ------------------------------------------------------------------ envs
     n_envs, total = int(hp.pop("n_envs", 1)), int(hp.pop("n_timesteps"))
     policy, normalize = hp.pop("policy", "MlpPolicy"), normalize_kwargs(hp.pop("normalize", False))
-    hp["policy_kwargs"] = policy_kwargs(hp.get("policy_kwargs"))
     gamma = hp.get("gamma", 0.99)
     resume_from = latest_checkpoint(run_dir) if args.resume else None
     # A resumed run draws new episodes: reseed by the step count it continues from.
@@ -182,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     # ------------------------------------------------------------------ model
     if resume_from is None:
         model = ALGOS[algo](policy, train_env, seed=seed, device="cpu", verbose=0,
-                            tensorboard_log=str(run_dir / "tb"), **hp)
+                            tensorboard_log=str(run_dir / "tb"), **algo_kwargs(hp, train_env.action_space.shape[0]))
     else:
         if normalize is not None:
             train_env = VecNormalize.load(str(normalizer_path(resume_from)), train_env.venv)

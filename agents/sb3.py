@@ -20,8 +20,10 @@ import torch
 import yaml
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.save_util import load_from_zip_file
+from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import VecNormalize
 from stable_baselines3.sac.policies import SACPolicy
 from stable_baselines3.td3.policies import TD3Policy
@@ -67,6 +69,27 @@ def policy_kwargs(value: str | dict[str, Any] | None) -> dict[str, Any]:
         if activation.lower() not in _ACTIVATIONS:
             raise ValueError(f"activation_fn must be one of {sorted(_ACTIVATIONS)}, got {activation!r}")
         kwargs["activation_fn"] = _ACTIVATIONS[activation.lower()]
+    return kwargs
+
+
+def algo_kwargs(hyperparams: dict[str, Any], n_actions: int) -> dict[str, Any]:
+    """Keyword arguments of the algorithm from the rest of a YAML entry.
+
+    Parses ``policy_kwargs``, the Zoo's linear schedules (``learning_rate: lin_3e-4``
+    decays to 0 over training) and turns ``noise_type: normal`` + ``noise_std`` into an
+    ``action_noise``.
+    """
+    kwargs = dict(hyperparams)
+    for key in ("learning_rate", "clip_range"):
+        value = kwargs.get(key)
+        if isinstance(value, str) and value.startswith("lin_"):
+            kwargs[key] = LinearSchedule(float(value.removeprefix("lin_")), 0.0, 1.0)
+    kwargs["policy_kwargs"] = policy_kwargs(kwargs.get("policy_kwargs"))
+    noise_type, noise_std = kwargs.pop("noise_type", None), kwargs.pop("noise_std", 0.1)
+    if noise_type is not None:
+        if noise_type != "normal":
+            raise ValueError(f"noise_type must be 'normal', got {noise_type!r}")
+        kwargs["action_noise"] = NormalActionNoise(np.zeros(n_actions), noise_std * np.ones(n_actions))
     return kwargs
 
 

@@ -76,3 +76,14 @@ def test_bad_configuration_is_a_one_line_error(argv: list[str], message: str, ca
     assert train.main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err
+
+
+@pytest.mark.parametrize("algo", sorted(train.ALGOS))
+@pytest.mark.parametrize("env_id", ["LightSail-v0", "LightSailDeepDish-v0", "LightSailRealistic-v0"])
+def test_shipped_hyperparameters_build_a_model(algo: str, env_id: str) -> None:
+    hp = train.load_hyperparams(algo, env_id)
+    assert {"n_envs", "n_timesteps", "policy", "normalize"} <= set(hp)
+    env = train.make_env(env_id, 1, 0, "dummy", train.normalize_kwargs(hp.pop("normalize")), 0.99, training=True)
+    hp.pop("n_envs"), hp.pop("n_timesteps")
+    model = train.ALGOS[algo](hp.pop("policy"), env, **train.algo_kwargs(hp, 2))
+    assert model.policy is not None
