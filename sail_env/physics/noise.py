@@ -28,7 +28,7 @@ import dataclasses
 
 import numpy as np
 import scipy.linalg
-import scipy.stats
+import scipy.special
 
 from sail_env.physics.planar import PlanarModel
 
@@ -118,6 +118,6 @@ def tolerable_jitter_psd(model: PlanarModel, duration: float, tolerance_rad: flo
         raise ValueError(f"probability must be in (0, 1), got {probability}")
     _, unit_cov = propagate_moments(model, np.zeros(4), np.zeros((4, 4)), np.zeros(2), duration,
                                     WhiteNoise(beam_jitter_psd_m2s=1.0))
-    quantile = float(scipy.stats.norm.ppf(0.5 + probability / 2))
+    quantile = float(scipy.special.ndtri(0.5 + probability / 2))
     allowed_speed = tolerance_rad * model.equilibrium_speed(cutoff_s) / quantile
     return allowed_speed**2 / unit_cov[1, 1]
