@@ -100,10 +100,14 @@ def make_env(env_id: str, n_envs: int, seed: int, vec_env: str, normalize: dict[
     return VecNormalize(venv, gamma=gamma, **normalize)
 
 
+def checkpoint_steps(path: Path) -> int:
+    """The step count in a checkpoint's name, ``rl_model_<N>_steps.zip``."""
+    return int(path.stem.split("_")[-2])
+
+
 def latest_checkpoint(run_dir: Path) -> Path:
     """The checkpoint with the most steps in ``run_dir/checkpoints``."""
-    found = sorted((run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"),
-                   key=lambda p: int(p.stem.split("_")[-2]))
+    found = sorted((run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"), key=checkpoint_steps)
     if not found:
         raise ModelLoadError(f"{run_dir / 'checkpoints'}: no checkpoint to resume from")
     return found[-1]
@@ -158,6 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
         config = run_config(args)
+        resume_from = latest_checkpoint(args.resume) if args.resume else None
     except (ModelLoadError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -172,9 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     n_envs, total = int(hp.pop("n_envs", 1)), int(hp.pop("n_timesteps"))
     policy, normalize = hp.pop("policy", "MlpPolicy"), normalize_kwargs(hp.pop("normalize", False))
     gamma = hp.get("gamma", 0.99)
-    resume_from = latest_checkpoint(run_dir) if args.resume else None
     # A resumed run draws new episodes: reseed by the step count it continues from.
-    offset = int(resume_from.stem.split("_")[-2]) if resume_from else 0
+    offset = checkpoint_steps(resume_from) if resume_from else 0
     train_env = make_env(env_id, n_envs, seed + offset, config["vec_env"], normalize, gamma, training=True)
     eval_env = make_env(env_id, 1, seed + EVAL_SEED_OFFSET, "dummy", normalize, gamma, training=False)
 

@@ -123,8 +123,9 @@ def main(argv: list[str] | None = None) -> None:
     table = markdown(rows, args.episodes, args.seed)
     (args.out / "rl_table.md").write_text(table)
     config = {k: v for k, v in vars(args).items() if k != "out"}
-    (args.out / "rl_table.json").write_text(json.dumps({"rows": rows, "config": config, "versions": versions()},
-                                                       indent=2))
+    standard = [{k: evaluate.finite_or_none(v) if isinstance(v, float) else v for k, v in r.items()} for r in rows]
+    (args.out / "rl_table.json").write_text(json.dumps({"rows": standard, "config": config, "versions": versions()},
+                                                       indent=2, allow_nan=False))
     print(f"written: {args.out / 'rl_table.md'}")
 
 

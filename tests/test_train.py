@@ -87,3 +87,10 @@ def test_shipped_hyperparameters_build_a_model(algo: str, env_id: str) -> None:
     hp.pop("n_envs"), hp.pop("n_timesteps")
     model = train.ALGOS[algo](hp.pop("policy"), env, **train.algo_kwargs(hp, 2))
     assert model.policy is not None
+
+
+def test_resume_without_a_checkpoint_is_a_one_line_error(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    (tmp_path / "run.json").write_text(json.dumps({"config": {"hyperparams": {}}}))
+    assert train.main(["--resume", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no checkpoint to resume from" in err and "\n" not in err
