@@ -142,7 +142,7 @@ class KeepBestBySuccess(BaseCallback):
         key = (score["success_rate"], score["mean_return"])
         new_best = self.best is None or key > (self.best["success_rate"], self.best["mean_return"])
         print(f"eval at {self.num_timesteps} steps: success {score['success_rate']:.1%}, "
-              f"mean return {score['mean_return']:.2f}{' (new best)' if new_best else ''}")
+              f"mean return {score['mean_return']:.2f}{' (new best)' if new_best else ''}", flush=True)
         if new_best:
             self.best = score
             save_model(self.model, self.run_dir / "best_model.zip")
@@ -193,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
         buffer = resume_from.with_name(f"{CHECKPOINT_PREFIX}_replay_buffer_{offset}_steps.pkl")
         if buffer.is_file():
             model.load_replay_buffer(buffer)
-        print(f"resuming from {resume_from} at {model.num_timesteps} steps")
+        print(f"resuming from {resume_from} at {model.num_timesteps} steps", flush=True)
     callbacks = [
         CheckpointCallback(max(config["save_freq"] // n_envs, 1), str(run_dir / "checkpoints"), CHECKPOINT_PREFIX,
                            save_replay_buffer=True, save_vecnormalize=True),
