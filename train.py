@@ -12,7 +12,7 @@ Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (keyed by env id, or
     best_model.zip (+ _vecnormalize.pkl)   best evaluation success rate (mean return breaks ties)
     best_model.json                   when and how well it was evaluated
     final_model.zip (+ _vecnormalize.pkl)  at the end of training
-    checkpoints/rl_model_<N>_steps.zip (+ normaliser, replay buffer)   also written on Ctrl-C
+    checkpoints/rl_model_<N>_steps.zip (+ normaliser, replay buffer)   also written on Ctrl-C or SIGTERM
     evaluations.npz, tb/              evaluation history, TensorBoard logs
 """
 
@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import shlex
+import signal
 import sys
 import time
 from pathlib import Path
@@ -229,5 +230,19 @@ def main(argv: list[str] | None = None) -> int:
     return 130 if status == "interrupted" else 0
 
 
+def stop_on_signals() -> None:
+    """SIGINT and SIGTERM (a scheduler's pre-emption) both save a checkpoint and stop.
+
+    A shell without job control starts background jobs with SIGINT ignored, and Python
+    then never raises KeyboardInterrupt: restore it explicitly.
+    """
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, interrupt)
+
+
 if __name__ == "__main__":
+    stop_on_signals()
     sys.exit(main())

@@ -49,15 +49,17 @@ def test_off_policy_resume_reloads_the_replay_buffer(tmp_path: Path) -> None:
     assert json.loads((out / "run.json").read_text())["sessions"][-1]["timesteps"] == 512
 
 
-def test_ctrl_c_saves_a_checkpoint_that_resume_continues(tmp_path: Path) -> None:
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_or_sigterm_saves_a_checkpoint_that_resume_continues(tmp_path: Path, signum: int) -> None:
     out = tmp_path / "run"
+    # Started with SIGINT ignored, as a shell without job control starts a background job.
     proc = subprocess.Popen([sys.executable, "train.py", "--algo", "ppo", "--timesteps", "10000000",
                              "--out", str(out), *FAST], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+                            text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     deadline = time.monotonic() + 60
     while not list(out.glob("checkpoints/*.zip")) and time.monotonic() < deadline:
         time.sleep(0.2)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signum)
     output, _ = proc.communicate(timeout=60)
     assert proc.returncode == 130, output
     run = json.loads((out / "run.json").read_text())
