@@ -8,9 +8,7 @@ A run directory (``train.py --out DIR``) holds, for every saved model ``NAME.zip
 
 from __future__ import annotations
 
-import importlib.metadata
 import pickle
-import platform
 import re
 from pathlib import Path
 from typing import Any
@@ -27,6 +25,8 @@ from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import VecNormalize
 from stable_baselines3.sac.policies import SACPolicy
 from stable_baselines3.td3.policies import TD3Policy
+
+from sail_env.provenance import package_versions
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
 #: The policy class stored in a model file tells which algorithm trained it.
@@ -137,7 +137,7 @@ def algo_of(model_path: str | Path) -> str:
 def versions() -> dict[str, str]:
     """Versions of Python and the packages a result depends on."""
     packages = ("lightsail-gym", "stable-baselines3", "torch", "gymnasium", "numpy", "scipy")
-    return {"python": platform.python_version(), **{p: importlib.metadata.version(p) for p in packages}}
+    return package_versions(*packages)
 
 
 # ---------------------------------------------------------------------- trained agents

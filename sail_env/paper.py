@@ -12,10 +12,8 @@ its stated results (``SEED_CLAIMS``).
 from __future__ import annotations
 
 import argparse
-import importlib.metadata
 import json
 import math
-import platform
 import shlex
 import sys
 from collections.abc import Sequence
@@ -39,6 +37,7 @@ from sail_env.physics.mission import (
 from sail_env.physics.planar import THETA, VX, X
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.relativity import LAWS, beta_history, time_to_beta
+from sail_env.provenance import package_versions
 
 LASER_POWER_W = 50e9
 TARGET_BETA = 0.2
@@ -384,13 +383,6 @@ def differences(report: dict) -> list[dict]:
     ]
 
 
-def _versions() -> dict:
-    versions = {"python": platform.python_version()}
-    for package in ("lightsail-gym", "numpy", "scipy", "matplotlib"):
-        versions[package] = importlib.metadata.version(package)
-    return versions
-
-
 def render_markdown(report: dict) -> str:
     """The human-readable report; every number is read from ``report``."""
     rel, fig5, stab, tol, mis = (report[k] for k in SECTIONS)
@@ -500,7 +492,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    report: dict = {"command": f"{parser.prog} {shlex.join(argv)}", "versions": _versions()}
+    report: dict = {"command": f"{parser.prog} {shlex.join(argv)}", "versions": package_versions("lightsail-gym", "numpy", "scipy", "matplotlib")}
     for name, section, figure_name in (("relativity", relativity, "figure4_relativity"),
                                        ("figure5", figure5, "figure5_perturbations"),
                                        ("stability", stability, "stability_map"),
