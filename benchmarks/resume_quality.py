@@ -38,16 +38,17 @@ def interrupted_then_resumed(algo: str, env_id: str, out: Path, save_freq: int, 
     run_dir = out / "resumed"
     if (run_dir / "final_model.zip").is_file():
         return run_dir
-    proc = subprocess.Popen([*TRAIN, "--algo", algo, "--env", env_id, "--out", str(run_dir),
-                             "--save-freq", str(save_freq)])
-    while proc.poll() is None:
-        steps = [int(p.stem.split("_")[-2]) for p in run_dir.glob("checkpoints/rl_model_*_steps.zip")]
-        if steps and max(steps) >= halfway:
-            proc.send_signal(signal.SIGINT)
-            break
-        time.sleep(0.5)
-    if proc.wait() != 130:
-        raise RuntimeError(f"the run was not interrupted mid-way (exit {proc.returncode})")
+    if not (run_dir / "run.json").is_file():  # else this script was itself stopped: just resume
+        proc = subprocess.Popen([*TRAIN, "--algo", algo, "--env", env_id, "--out", str(run_dir),
+                                 "--save-freq", str(save_freq)])
+        while proc.poll() is None:
+            steps = [int(p.stem.split("_")[-2]) for p in run_dir.glob("checkpoints/rl_model_*_steps.zip")]
+            if steps and max(steps) >= halfway:
+                proc.send_signal(signal.SIGINT)
+                break
+            time.sleep(0.5)
+        if proc.wait() != 130:
+            raise RuntimeError(f"the run was not interrupted mid-way (exit {proc.returncode})")
     subprocess.run([*TRAIN, "--resume", str(run_dir)], check=True)
     return run_dir
 

@@ -492,7 +492,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    report: dict = {"command": f"{parser.prog} {shlex.join(argv)}", "versions": package_versions("lightsail-gym", "numpy", "scipy", "matplotlib")}
+    report: dict = {"command": f"{parser.prog} {shlex.join(argv)}",
+                    "versions": package_versions("lightsail-gym", "numpy", "scipy", "matplotlib")}
     for name, section, figure_name in (("relativity", relativity, "figure4_relativity"),
                                        ("figure5", figure5, "figure5_perturbations"),
                                        ("stability", stability, "stability_map"),
