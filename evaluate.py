@@ -24,6 +24,7 @@ import gymnasium as gym
 import matplotlib
 import numpy as np
 import torch
+from threadpoolctl import threadpool_limits
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -216,7 +217,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error("--episodes must be >= 1")
+    # One process per core: the env's matrices are tiny, and BLAS threads spinning against a
+    # second job on the 2 cores halved the env's steps/s (benchmarks/throughput.py).
     torch.set_num_threads(1)
+    threadpool_limits(1)
     try:
         results, trajectories = evaluate(args.env, args.agent, args.episodes, args.seed)
     except (ModelLoadError, ValueError) as err:

@@ -29,6 +29,7 @@ from typing import Any
 
 import gymnasium as gym
 import torch
+from threadpoolctl import threadpool_limits
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.env_util import make_vec_env
@@ -171,7 +172,10 @@ def main(argv: list[str] | None = None) -> int:
     hp = dict(config["hyperparams"])
     run_dir = args.resume or args.out or Path("runs") / f"{env_id}-{algo}-{seed}"
     run_dir.mkdir(parents=True, exist_ok=True)
+    # One process per core: the env's matrices are tiny, and BLAS threads spinning against a
+    # second job on the 2 cores halved the env's steps/s (benchmarks/throughput.py).
     torch.set_num_threads(1)
+    threadpool_limits(1)
     set_random_seed(seed)
 
     # ------------------------------------------------------------------ envs

@@ -11,7 +11,7 @@ import argparse
 import time
 
 import gymnasium as gym
-import numpy as np
+from threadpoolctl import threadpool_limits
 
 import sail_env  # noqa: F401
 from sail_env.tasks import TASKS
@@ -34,6 +34,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20_000)
     args = parser.parse_args()
+    threadpool_limits(1)  # as train.py and evaluate.py run the envs
     reference = steps_per_second("CartPole-v1", args.steps)
     print("| environment | steps/s | ratio to CartPole-v1 |")
     print("|---|---:|---:|")

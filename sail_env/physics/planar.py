@@ -46,6 +46,8 @@ OVERLAP_CENTROID_FACTOR = 0.5
 STATE_NAMES = ("x", "vx", "theta", "omega")
 INPUT_NAMES = ("beam_offset", "beam_tilt")
 X, VX, THETA, OMEGA = range(4)
+#: Durations whose exact step :meth:`PlanarModel.discretize` keeps.
+DISCRETIZE_CACHE_SIZE = 4
 
 
 class StabilityKind(str, enum.Enum):
@@ -100,6 +102,7 @@ class PlanarModel:
         self.B = b
         self.A.setflags(write=False)
         self.B.setflags(write=False)
+        self._discretized: dict[float, tuple[np.ndarray, np.ndarray]] = {}
 
     @property
     def push_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
@@ -164,11 +167,21 @@ class PlanarModel:
         return self.controllable_basis.shape[1] == 4
 
     def discretize(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Exact zero-order-hold step ``s⁺ = Φ s + Γ u`` over ``dt`` seconds.
+        """Exact zero-order-hold step ``s⁺ = Φ s + Γ u`` over ``dt`` seconds (read-only arrays).
 
-        ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] dt)`` (the augmented exponential).
+        ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] dt)`` (the augmented exponential). The
+        last few durations are cached: the coast to a fixed cut-off repeats every episode,
+        and its exponential (hundreds of radians of phase) costs milliseconds.
         """
-        return zoh_discretize(self.A, self.B, dt)
+        cached = self._discretized.pop(dt, None)
+        if cached is None:
+            cached = zoh_discretize(self.A, self.B, dt)
+            for matrix in cached:
+                matrix.setflags(write=False)
+            if len(self._discretized) >= DISCRETIZE_CACHE_SIZE:
+                del self._discretized[next(iter(self._discretized))]
+        self._discretized[dt] = cached  # (re)inserted last: the dict is kept in recency order
+        return cached
 
     def equilibrium_speed(self, t: float) -> float:
         """Axial speed ``Vz = F t / m`` [m/s] (Newtonian, as in the seed's planar model)."""

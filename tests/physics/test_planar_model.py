@@ -3,10 +3,12 @@ import math
 import numpy as np
 import pytest
 import scipy.integrate
+import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sail_env.physics import DEEP_DISH, FLAT, SEED, PlanarModel, SailConfig, StabilityKind
+from sail_env.physics.planar import DISCRETIZE_CACHE_SIZE
 from tests.conftest import seed_rhs
 
 
@@ -158,3 +160,17 @@ def test_a_shorter_strut_near_the_crossing_flutters():
     eig = np.linalg.eigvals(PlanarModel(config).A)
     assert stability.growth_rate == pytest.approx(max(eig.real), rel=1e-6)
     assert np.all(np.abs(eig.imag) > 0)  # a growing oscillation, not a divergence
+
+
+def test_discretize_cache_is_exact_read_only_and_bounded():
+    model = PlanarModel(DEEP_DISH)
+    durations = [0.005 * k for k in range(1, DISCRETIZE_CACHE_SIZE + 3)]
+    for dt in durations:
+        phi, gamma = model.discretize(dt)
+        reference = scipy.linalg.expm(np.block([[model.A, model.B], [np.zeros((2, 6))]]) * dt)
+        np.testing.assert_array_equal(phi, reference[:4, :4])
+        np.testing.assert_array_equal(gamma, reference[:4, 4:])
+        with pytest.raises(ValueError):
+            phi[0, 0] = 1.0
+    assert model.discretize(durations[-1])[0] is model.discretize(durations[-1])[0]
+    assert len(model._discretized) == DISCRETIZE_CACHE_SIZE
