@@ -171,7 +171,7 @@ class PlanarModel:
 
         ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] dt)`` (the augmented exponential). The
         last few durations are cached: the coast to a fixed cut-off repeats every episode,
-        and its exponential (hundreds of radians of phase) costs milliseconds.
+        and its exponential (~40,000 rad of phase) costs milliseconds.
         """
         cached = self._discretized.pop(dt, None)
         if cached is None:
