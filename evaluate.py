@@ -23,15 +23,13 @@ from typing import Any
 import gymnasium as gym
 import matplotlib
 import numpy as np
-import torch
-from threadpoolctl import threadpool_limits
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
-from agents.sb3 import ModelLoadError, SB3Agent, versions  # noqa: E402
+from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
 
 BASELINES: dict[str, Callable[[gym.Env], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
@@ -217,10 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error("--episodes must be >= 1")
-    # One process per core: the env's matrices are tiny, and BLAS threads spinning against a
-    # second job on the 2 cores halved the env's steps/s (benchmarks/throughput.py).
-    torch.set_num_threads(1)
-    threadpool_limits(1)
+    one_thread_per_process()
     try:
         results, trajectories = evaluate(args.env, args.agent, args.episodes, args.seed)
     except (ModelLoadError, ValueError) as err:

@@ -28,8 +28,6 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import torch
-from threadpoolctl import threadpool_limits
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.env_util import make_vec_env
@@ -38,7 +36,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv,
 
 import sail_env  # noqa: F401  (registers the env ids)
 from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, load_hyperparams, normalize_kwargs,
-                        normalizer_path, save_model, versions)
+                        normalizer_path, one_thread_per_process, save_model, versions)
 
 CHECKPOINT_PREFIX = "rl_model"
 #: Evaluation episodes during training are seeded apart from the training envs and from
@@ -172,10 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     hp = dict(config["hyperparams"])
     run_dir = args.resume or args.out or Path("runs") / f"{env_id}-{algo}-{seed}"
     run_dir.mkdir(parents=True, exist_ok=True)
-    # One process per core: the env's matrices are tiny, and BLAS threads spinning against a
-    # second job on the 2 cores halved the env's steps/s (benchmarks/throughput.py).
-    torch.set_num_threads(1)
-    threadpool_limits(1)
+    one_thread_per_process()
     set_random_seed(seed)
 
     # ------------------------------------------------------------------ envs

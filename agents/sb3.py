@@ -25,6 +25,7 @@ from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import VecNormalize
 from stable_baselines3.sac.policies import SACPolicy
 from stable_baselines3.td3.policies import TD3Policy
+from threadpoolctl import threadpool_limits
 
 from sail_env.provenance import package_versions
 
@@ -132,6 +133,13 @@ def algo_of(model_path: str | Path) -> str:
         if isinstance(policy_class, type) and issubclass(policy_class, base):
             return algo
     raise ModelLoadError(f"{model_path}: unknown policy class {policy_class!r}")
+
+
+def one_thread_per_process() -> None:
+    """Run torch and BLAS on one thread: the env's matrices are tiny, and BLAS threads spinning
+    against a second job on a 2-core machine halved the env's steps/s (benchmarks/throughput.py)."""
+    torch.set_num_threads(1)
+    threadpool_limits(1)
 
 
 def versions() -> dict[str, str]:

@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 import evaluate  # noqa: E402
 from agents.sb3 import load_hyperparams  # noqa: E402
+from train import CHECKPOINT_PREFIX, checkpoint_steps  # noqa: E402
 
 TRAIN = [sys.executable, str(ROOT / "train.py"), "--no-progress-bar"]
 
@@ -42,7 +43,7 @@ def interrupted_then_resumed(algo: str, env_id: str, out: Path, save_freq: int, 
         proc = subprocess.Popen([*TRAIN, "--algo", algo, "--env", env_id, "--out", str(run_dir),
                                  "--save-freq", str(save_freq)])
         while proc.poll() is None:
-            steps = [int(p.stem.split("_")[-2]) for p in run_dir.glob("checkpoints/rl_model_*_steps.zip")]
+            steps = [checkpoint_steps(p) for p in run_dir.glob(f"checkpoints/{CHECKPOINT_PREFIX}_*_steps.zip")]
             if steps and max(steps) >= halfway:
                 proc.send_signal(signal.SIGINT)
                 break
