@@ -30,9 +30,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
+from sail_env.core.spec import EpisodeSpec  # noqa: E402
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
 
-BASELINES: dict[str, Callable[[gym.Env], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
+BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
 #: Apart from the seeds train.py trains and selects models on.
 DEFAULT_SEED = 100_000
 START_KEYS = ("x", "vx", "theta", "omega")
@@ -41,7 +42,7 @@ START_KEYS = ("x", "vx", "theta", "omega")
 def make_agent(spec: str, env: gym.Env) -> Agent:
     """A baseline by name, or a trained model by path (:class:`ModelLoadError` if unusable)."""
     if spec in BASELINES:
-        return BASELINES[spec](env)
+        return BASELINES[spec](env.unwrapped.episode_spec)
     return SB3Agent.load(spec, env.observation_space.shape)
 
 

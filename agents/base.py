@@ -8,7 +8,10 @@ import numpy as np
 
 
 class Agent(Protocol):
-    """``act(obs) -> action`` in the env's normalised action space; ``reset()`` between episodes."""
+    """``act(obs) -> action`` in the env's normalised action space; ``reset()`` between episodes.
+
+    ``act`` takes one observation (D,) or a batch (N, D) of episodes started together.
+    """
 
     name: str
 

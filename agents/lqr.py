@@ -10,10 +10,10 @@ slowly varying load; the closed loop settles on the equilibrium it sets, with ``
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
 import scipy.linalg
 
+from sail_env.core.spec import EpisodeSpec
 from sail_env.physics.planar import PlanarModel
 
 #: Weights on (X, Vx, θ, ω), relative to the observation scales: speed matters most,
@@ -43,18 +43,20 @@ def lqr_gain(model: PlanarModel, dt: float, state_scale: np.ndarray, input_scale
 
 
 class LQRAgent:
-    """Full-state feedback from the observation, saturated to the action limits."""
+    """Full-state feedback from the observation, saturated to the action limits.
+
+    Designed on the task's nominal model (``env.unwrapped.episode_spec``); acts on one
+    observation (D,) or a batch (N, D).
+    """
 
     name = "lqr"
 
-    def __init__(self, env: gym.Env, input_weight: float = 1.0) -> None:
-        self.env = env.unwrapped
-        self.gain = lqr_gain(self.env.nominal_model, self.env.config.control_step_s,
-                             self.env.state_scale, self.env.action_scale, input_weight)
+    def __init__(self, spec: EpisodeSpec, input_weight: float = 1.0) -> None:
+        self.spec = spec
+        self.gain = lqr_gain(spec.nominal, spec.dt, spec.state_scale, spec.action_scale, input_weight)
 
     def act(self, observation: np.ndarray) -> np.ndarray:
-        state = self.env.observation_to_state(observation)
-        return self.env.input_to_action(-self.gain @ state)
+        return self.spec.input_to_action(-self.spec.observation_to_state(observation) @ self.gain.T)
 
     def reset(self) -> None:
         """Memoryless."""

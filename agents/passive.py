@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
+
+from sail_env.core.spec import EpisodeSpec
 
 
 class PassiveAgent:
@@ -11,11 +12,11 @@ class PassiveAgent:
 
     name = "passive"
 
-    def __init__(self, env: gym.Env) -> None:
-        self._action = np.zeros(env.action_space.shape, dtype=np.float32)
+    def __init__(self, spec: EpisodeSpec) -> None:
+        self.n_inputs = len(spec.action_scale)
 
     def act(self, observation: np.ndarray) -> np.ndarray:
-        return self._action.copy()
+        return np.zeros((*np.shape(observation)[:-1], self.n_inputs), dtype=np.float32)
 
     def reset(self) -> None:
         """Nothing to forget."""

@@ -24,7 +24,7 @@ OFF = {"sensor_noise_std": (0.0, 0.0, 0.0, 0.0), "beam_jitter_m": 0.0, "push_noi
 
 def success_rate(agent_name: str, episodes: int, **disturbances) -> float:
     env = gym.make(ENV_ID, **disturbances)
-    agent = BASELINES[agent_name](env)
+    agent = BASELINES[agent_name](env.unwrapped.episode_spec)
     return float(np.mean([run_episode(env, agent, DEFAULT_SEED + i)["success"] for i in range(episodes)]))
 
 

@@ -1,6 +1,5 @@
-"""Gymnasium environments of lightsail-gym."""
+"""Gymnasium environments of lightsail-gym: the single env and the NumPy-batched vector env."""
 
-from sail_env.envs.disturbances import Disturbances
 from sail_env.envs.planar import LightSailEnv
 
-__all__ = ["Disturbances", "LightSailEnv"]
+__all__ = ["LightSailEnv"]

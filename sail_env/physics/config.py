@@ -93,8 +93,7 @@ class SailConfig:
     @property
     def moment_of_inertia_kg_m2(self) -> float:
         """Seed eq 10: ``I = m_sail Lc^2 + m_craft (L - Lc)^2`` (point masses on a massless strut)."""
-        lc, strut = self.com_distance_m, self.strut_length_m
-        return self.sail_mass_kg * lc**2 + self.craft_mass_kg * (strut - lc) ** 2
+        return moment_of_inertia(self.sail_mass_kg, self.craft_mass_kg, self.com_distance_m, self.strut_length_m)
 
     @property
     def curvature_per_m(self) -> float:
@@ -116,6 +115,11 @@ class SailConfig:
 
     def as_dict(self) -> dict[str, float]:
         return dataclasses.asdict(self)
+
+
+def moment_of_inertia(sail_mass, craft_mass, com_distance, strut_length):
+    """Seed eq 10, ``m_sail Lc² + m_craft (L − Lc)²`` (scalars or arrays)."""
+    return sail_mass * com_distance**2 + craft_mass * (strut_length - com_distance) ** 2
 
 
 def push_force_from_laser(power_w: float, reflectance: float = 1.0) -> float:

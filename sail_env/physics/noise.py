@@ -30,7 +30,7 @@ import numpy as np
 import scipy.linalg
 import scipy.special
 
-from sail_env.physics.planar import PlanarModel
+from sail_env.physics.planar import PlanarModel, push_sensitivity
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,22 +58,48 @@ class WhiteNoise:
         return cls(jitter_std_m**2 * dt, push_std**2 * dt)
 
 
-def moment_generator(model: PlanarModel, action: np.ndarray, noise: WhiteNoise) -> np.ndarray:
-    """The 25x25 matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``)."""
-    a_push, b_push = model.push_sensitivity
-    drift = np.zeros((5, 5))
-    drift[:4, :4] = model.A
-    drift[:4, 4] = model.B @ action
-    mult = np.zeros((5, 5))
-    mult[:4, :4] = a_push
-    mult[:4, 4] = b_push @ action
+def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise) -> np.ndarray:
+    """The 25x25 matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``), batched over
+    the leading axes of ``a`` (..., 4, 4), ``b`` (..., 4, 2) and ``action`` (..., 2)."""
+    a_push, b_push = push_sensitivity(a, b)
+    batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
+    drift = np.zeros((*batch, 5, 5))
+    drift[..., :4, :4] = a
+    drift[..., :4, 4] = np.einsum("...ij,...j->...i", b, action)
+    mult = np.zeros((*batch, 5, 5))
+    mult[..., :4, :4] = a_push
+    mult[..., :4, 4] = np.einsum("...ij,...j->...i", b_push, action)
     drift = drift + 0.5 * noise.push_psd_s * mult @ mult
     eye = np.eye(5)
-    gen = np.kron(drift, eye) + np.kron(eye, drift) + noise.push_psd_s * np.kron(mult, mult)
-    jitter = np.zeros((5, 5))
-    jitter[:4, :4] = noise.beam_jitter_psd_m2s * np.outer(model.B[:, 0], model.B[:, 0])
-    gen[:, 24] += jitter.ravel()
+    gen = (_kron(drift, eye) + _kron(eye, drift)) + noise.push_psd_s * _kron(mult, mult)
+    jitter = np.zeros((*batch, 5, 5))
+    jitter[..., :4, :4] = noise.beam_jitter_psd_m2s * b[..., :, None, 0] * b[..., None, :, 0]
+    gen[..., :, 24] += jitter.reshape(*batch, 25)
     return gen
+
+
+def _kron(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``np.kron`` over the last two axes, batched over the leading ones."""
+    out = x[..., :, None, :, None] * y[..., None, :, None, :]
+    return out.reshape(*out.shape[:-4], x.shape[-2] * y.shape[-2], x.shape[-1] * y.shape[-1])
+
+
+def second_moment(mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """``E[x xᵀ]`` of the augmented state ``x = (s, 1)``, flattened (..., 25)."""
+    batch = mean.shape[:-1]
+    second = np.zeros((*batch, 5, 5))
+    second[..., :4, :4] = cov + mean[..., :, None] * mean[..., None, :]
+    second[..., :4, 4] = second[..., 4, :4] = mean
+    second[..., 4, 4] = 1.0
+    return second.reshape(*batch, 25)
+
+
+def mean_and_covariance(second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`second_moment` (the covariance symmetrised against round-off)."""
+    second = second.reshape(*second.shape[:-1], 5, 5)
+    mean = second[..., :4, 4].copy()
+    cov = second[..., :4, :4] - mean[..., :, None] * mean[..., None, :]
+    return mean, 0.5 * (cov + np.swapaxes(cov, -1, -2))
 
 
 def propagate_moments(model: PlanarModel, mean: np.ndarray, cov: np.ndarray,
@@ -87,23 +113,8 @@ def propagate_moments(model: PlanarModel, mean: np.ndarray, cov: np.ndarray,
         # Noise-free: the exact propagator, free of the cancellation in M − mean meanᵀ.
         phi, gamma = model.discretize(duration)
         return phi @ mean + gamma @ action, phi @ cov @ phi.T
-    second = np.zeros((5, 5))
-    second[:4, :4] = cov + np.outer(mean, mean)
-    second[:4, 4] = second[4, :4] = mean
-    second[4, 4] = 1.0
-    gen = moment_generator(model, action, noise)
-    second = (scipy.linalg.expm(gen * duration) @ second.ravel()).reshape(5, 5)
-    new_mean = second[:4, 4].copy()
-    new_cov = second[:4, :4] - np.outer(new_mean, new_mean)
-    new_cov = 0.5 * (new_cov + new_cov.T)
-    return new_mean, new_cov
-
-
-def sample_gaussian(rng: np.random.Generator, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """One draw from N(mean, cov) for a possibly singular PSD covariance."""
-    eigval, eigvec = np.linalg.eigh(cov)
-    scale = np.sqrt(np.clip(eigval, 0.0, None))
-    return mean + eigvec @ (scale * rng.standard_normal(len(mean)))
+    gen = moment_generator(model.A, model.B, action, noise)
+    return mean_and_covariance(scipy.linalg.expm(gen * duration) @ second_moment(mean, cov))
 
 
 def tolerable_jitter_psd(model: PlanarModel, duration: float, tolerance_rad: float,

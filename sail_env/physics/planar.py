@@ -33,12 +33,10 @@ from __future__ import annotations
 import dataclasses
 import enum
 import functools
-import math
 
 import numpy as np
-import scipy.linalg
-
 from sail_env.physics.config import SailConfig
+from sail_env.physics.linear import zoh_discretize
 
 #: Centroid factor of the lit lens between a flat-top beam and the aperture (seed eq 14).
 OVERLAP_CENTROID_FACTOR = 0.5
@@ -80,26 +78,7 @@ class PlanarModel:
 
     def __init__(self, config: SailConfig) -> None:
         self.config = config
-        force, mass = config.push_force_n, config.total_mass_kg
-        inertia, lc = config.moment_of_inertia_kg_m2, config.com_distance_m
-        k, kappa = OVERLAP_CENTROID_FACTOR, config.curvature_per_m
-        # Lc/R − 1 is computed as written so that Lc == R gives an exact zero torque.
-        torque_factor = lc / config.curvature_radius_m - 1.0
-        # d(acceleration)/d(Δ): the lateral force and torque per metre of landing offset.
-        force_per_offset = -k * force * kappa / mass
-        torque_per_offset = -k * force * torque_factor / inertia
-        a = np.zeros((4, 4))
-        a[X, VX] = 1.0
-        a[THETA, OMEGA] = 1.0
-        a[VX, X] = force_per_offset
-        a[VX, THETA] = force / mass + force_per_offset * lc
-        a[OMEGA, X] = torque_per_offset
-        a[OMEGA, THETA] = torque_per_offset * lc
-        b = np.zeros((4, 2))
-        b[VX] = (-force_per_offset, -force_per_offset * lc)
-        b[OMEGA] = (-torque_per_offset, -torque_per_offset * lc)
-        self.A = a
-        self.B = b
+        self.A, self.B = system_matrices(**matrix_parameters(config))
         self.A.setflags(write=False)
         self.B.setflags(write=False)
         self._discretized: dict[float, tuple[np.ndarray, np.ndarray]] = {}
@@ -107,10 +86,7 @@ class PlanarModel:
     @property
     def push_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
         """``(∂A/∂ln F, ∂B/∂ln F)``: every force term scales with the push ``F``."""
-        a_push = self.A.copy()
-        a_push[X, VX] = 0.0
-        a_push[THETA, OMEGA] = 0.0
-        return a_push, self.B.copy()
+        return push_sensitivity(self.A, self.B)
 
     @functools.cached_property
     def stiffness(self) -> np.ndarray:
@@ -126,23 +102,11 @@ class PlanarModel:
         eigensolver makes of a defective matrix. A negative discriminant is flutter:
         the modes coalesce into a growing oscillation.
         """
-        m = -self.stiffness
-        scale = max(float(np.abs(m).max()), 1e-300)
-        trace, det = m[0, 0] + m[1, 1], m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
-        disc = (m[0, 0] - m[1, 1]) ** 2 + 4.0 * m[0, 1] * m[1, 0]
-        if abs(disc) <= 1e-12 * scale**2:
-            disc = 0.0
-        if disc >= 0:
-            # The larger root without cancellation, the other from the product of roots.
-            big = 0.5 * (trace + math.copysign(math.sqrt(disc), trace))
-            mu = np.array([big, det / big if big != 0 else 0.0], dtype=complex)
-        else:
-            mu = 0.5 * (trace + np.array([1j, -1j]) * math.sqrt(-disc))
-        mu = np.where(np.abs(mu) <= 1e-12 * scale, 0.0, mu)
+        mu, flutter = stiffness_roots(-self.stiffness)
         roots = np.sqrt(mu)
         eigenvalues = np.concatenate([roots, -roots])
         growth = float(max(eigenvalues.real.max(), 0.0)) + 0.0  # + 0.0 turns -0.0 into 0.0
-        frequencies = tuple(sorted(float(r.imag) for r in roots if r.imag > 0 and disc >= 0))
+        frequencies = tuple(sorted(float(r.imag) for r in roots if r.imag > 0 and not flutter))
         if growth > 0.0:
             kind = StabilityKind.UNSTABLE
         elif np.any(mu == 0.0):
@@ -188,13 +152,75 @@ class PlanarModel:
         return self.config.axial_acceleration_m_s2 * t
 
 
-def zoh_discretize(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Zero-order-hold discretisation of ``ẋ = a x + b u`` over ``dt``."""
-    if not dt >= 0:
-        raise ValueError(f"dt must be >= 0, got {dt}")
-    n, m = b.shape
-    augmented = np.zeros((n + m, n + m))
-    augmented[:n, :n] = a
-    augmented[:n, n:] = b
-    exp = scipy.linalg.expm(augmented * dt)
-    return exp[:n, :n], exp[:n, n:]
+def matrix_parameters(config: SailConfig) -> dict[str, float]:
+    """The physical parameters :func:`system_matrices` takes, from one configuration."""
+    return {"force": config.push_force_n, "mass": config.total_mass_kg,
+            "inertia": config.moment_of_inertia_kg_m2, "com_distance": config.com_distance_m,
+            "curvature_radius": config.curvature_radius_m}
+
+
+def system_matrices(force, mass, inertia, com_distance, curvature_radius) -> tuple[np.ndarray, np.ndarray]:
+    """``A`` (..., 4, 4) and ``B`` (..., 4, 2) of the module's equations; arguments broadcast."""
+    force, mass, inertia, lc, radius = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (force, mass, inertia, com_distance, curvature_radius)))
+    k = OVERLAP_CENTROID_FACTOR
+    # Lc/R − 1 is computed as written so that Lc == R gives an exact zero torque.
+    torque_factor = lc / radius - 1.0
+    # d(acceleration)/d(Δ): the lateral force and torque per metre of landing offset.
+    force_per_offset = -k * force * (1.0 / radius) / mass
+    torque_per_offset = -k * force * torque_factor / inertia
+    a = np.zeros((*force.shape, 4, 4))
+    a[..., X, VX] = 1.0
+    a[..., THETA, OMEGA] = 1.0
+    a[..., VX, X] = force_per_offset
+    a[..., VX, THETA] = force / mass + force_per_offset * lc
+    a[..., OMEGA, X] = torque_per_offset
+    a[..., OMEGA, THETA] = torque_per_offset * lc
+    b = np.zeros((*force.shape, 4, 2))
+    b[..., VX, 0] = -force_per_offset
+    b[..., VX, 1] = -force_per_offset * lc
+    b[..., OMEGA, 0] = -torque_per_offset
+    b[..., OMEGA, 1] = -torque_per_offset * lc
+    return a, b
+
+
+def push_sensitivity(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(∂A/∂ln F, ∂B/∂ln F)``: every entry but the kinematic ones scales with the push."""
+    a_push = a.copy()
+    a_push[..., X, VX] = 0.0
+    a_push[..., THETA, OMEGA] = 0.0
+    return a_push, b.copy()
+
+
+def stiffness_roots(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Roots ``μ`` (..., 2) of the 2x2 ``m = −K`` in closed form, and whether they flutter.
+
+    The eigenvalues of the 4x4 system are ``±√μ``. The larger root is taken without
+    cancellation and the other from the product of roots; a discriminant within
+    round-off of zero (where the mode frequencies cross) is taken as zero, and roots
+    within round-off of zero as zero, so the seed point's double zero stays exact. A
+    negative discriminant is flutter: the modes coalesce into a growing oscillation.
+    """
+    scale = np.maximum(np.abs(m).max(axis=(-2, -1)), 1e-300)
+    trace = m[..., 0, 0] + m[..., 1, 1]
+    det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
+    disc = (m[..., 0, 0] - m[..., 1, 1]) ** 2 + 4.0 * m[..., 0, 1] * m[..., 1, 0]
+    disc = np.where(np.abs(disc) <= 1e-12 * scale**2, 0.0, disc)
+    flutter = disc < 0
+    big = 0.5 * (trace + np.copysign(np.sqrt(np.abs(disc)), trace))
+    small = np.divide(det, big, out=np.zeros_like(big), where=big != 0)
+    real = np.stack([big, small], axis=-1).astype(complex)
+    coalesced = 0.5 * (trace[..., None] + np.array([1j, -1j]) * np.sqrt(np.abs(disc))[..., None])
+    mu = np.where(flutter[..., None], coalesced, real)
+    mu = np.where(np.abs(mu) <= 1e-12 * scale[..., None], 0.0, mu)
+    return mu, flutter
+
+
+def rates(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Batched growth rate (..., ) and oscillation frequencies (..., 2; NaN where a mode does
+    not oscillate) of planar system matrices, from :func:`stiffness_roots`."""
+    mu, flutter = stiffness_roots(a[..., [VX, OMEGA], :][..., [X, THETA]])
+    roots = np.sqrt(mu)
+    growth = np.maximum(np.abs(roots.real).max(axis=-1), 0.0)
+    oscillating = (roots.imag > 0) & ~flutter[..., None]
+    return growth, np.where(oscillating, roots.imag, np.nan)

@@ -10,11 +10,10 @@ depends on the cut-off phase, so we also report the *envelope*: the largest
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from sail_env.physics.planar import VX, PlanarModel, zoh_discretize
+from sail_env.physics.linear import zoh_discretize
+from sail_env.physics.planar import VX, PlanarModel, rates
 
 #: Seed eq 20: the flight direction must be within ~1e-8 rad to pass Proxima b closer
 #: than the Earth-Moon distance (see :func:`sail_env.physics.mission.pointing_tolerance_rad`).
@@ -26,39 +25,61 @@ def pointing_error(model: PlanarModel, state: np.ndarray, t: float) -> float:
     return abs(float(state[VX])) / model.equilibrium_speed(t)
 
 
-class EnvelopeEstimator:
-    """Largest future ``|Vx|`` with the input held, from precomputed propagators.
+def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_per_fast_period: int = 32,
+                   max_samples: int = 2048) -> np.ndarray:
+    """Rows ``[Φ(t_i)[Vx], Γ(t_i)[Vx]]`` (..., S, 6) over the look-ahead of each model in a batch.
 
     The look-ahead spans ``periods`` of the slowest beat between oscillation modes (at
     least ``periods`` of the slowest mode) sampled at ``samples_per_fast_period`` per
-    period of the fastest, so it converges to the sum of the modes' amplitudes. For a
-    single mode it is the amplitude of the oscillation, within ``1 − cos(π/n)``.
+    period of the fastest, so its maximum converges to the sum of the modes' amplitudes;
+    for a single mode it is the amplitude within ``1 − cos(π/n)``. A model without
+    oscillation looks ahead five e-folding times (at least 5 s). Each model gets its own
+    number of samples; shorter tables are padded with their last row, which leaves the
+    maximum unchanged.
     """
+    growth, freqs = rates(a)
+    growth, freqs = np.atleast_1d(growth), np.atleast_2d(freqs)
+    count = np.sum(~np.isnan(freqs), axis=-1)
+    slowest = np.nanmin(np.where(count[:, None] > 0, freqs, np.inf), axis=-1)
+    fastest = np.nanmax(np.where(count[:, None] > 0, freqs, -np.inf), axis=-1)
+    beat = np.where(count == 2, np.abs(freqs[:, 0] - freqs[:, 1]), np.inf)
+    beat = np.where(beat > 0, beat, np.inf)  # equal frequencies beat at no rate
+    rate = np.maximum(growth, 1.0)
+    oscillating = count > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        horizon = np.where(oscillating, periods * 2 * np.pi / np.minimum(slowest, beat), 5.0 / rate)
+        spacing = np.where(oscillating, 2 * np.pi / fastest / samples_per_fast_period, 5.0 / rate / 64)
+    samples = np.minimum(max_samples, np.maximum(2, np.ceil(horizon / spacing).astype(np.int64) + 1))
+    step_phi, step_gamma = zoh_discretize(a.reshape(-1, 4, 4), b.reshape(-1, 4, 2), horizon / (samples - 1))
+    k = len(samples)
+    phi, gamma = np.broadcast_to(np.eye(4), (k, 4, 4)), np.zeros((k, 4, 2))
+    table = np.empty((k, samples.max(), 6))
+    for i in range(samples.max()):
+        table[:, i, :4], table[:, i, 4:] = phi[:, VX], gamma[:, VX]
+        more = i + 1 < samples
+        phi = np.where(more[:, None, None], step_phi @ phi, phi)
+        gamma = np.where(more[:, None, None], step_phi @ gamma + step_gamma, gamma)
+    return table.reshape(*a.shape[:-2], samples.max(), 6)
+
+
+def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+    """Largest ``|Vx|`` [m/s] over a look-ahead (:func:`envelope_table`), input ``action`` held.
+
+    ``table`` (S, 6) shared by a batch of states (..., 4), or one table per state (..., S, 6).
+    """
+    z = np.concatenate([state, action], axis=-1)
+    if table.ndim == 2:
+        return np.abs(z @ table.T).max(axis=-1)
+    return np.abs(np.einsum("...sk,...k->...s", table, z)).max(axis=-1)
+
+
+class EnvelopeEstimator:
+    """The envelope of one model: :func:`envelope_table` kept for repeated queries."""
 
     def __init__(self, model: PlanarModel, periods: float = 1.0,
                  samples_per_fast_period: int = 32, max_samples: int = 2048) -> None:
-        freqs = model.stability.frequencies
-        if not freqs:
-            # No oscillation: growth or drift shows within a few e-folding times.
-            rate = max(model.stability.growth_rate, 1.0)
-            horizon, spacing = 5.0 / rate, 5.0 / rate / 64
-        else:
-            slowest = min(freqs)
-            beats = [abs(f1 - f2) for f1 in freqs for f2 in freqs if f1 != f2]
-            slowest = min([slowest, *beats])
-            horizon = periods * 2 * math.pi / slowest
-            spacing = 2 * math.pi / max(freqs) / samples_per_fast_period
-        n = min(max_samples, max(2, math.ceil(horizon / spacing) + 1))
-        self.times = np.linspace(0.0, horizon, n)
-        step_phi, step_gamma = zoh_discretize(model.A, model.B, self.times[1])
-        phis, gammas = [np.eye(4)], [np.zeros_like(model.B)]
-        for _ in range(n - 1):
-            phis.append(step_phi @ phis[-1])
-            gammas.append(step_phi @ gammas[-1] + step_gamma)
-        # Only the Vx rows are needed: envelope = max_i |phi_i[VX] s + gamma_i[VX] u|.
-        self._phi_vx = np.array([p[VX] for p in phis])
-        self._gamma_vx = np.array([g[VX] for g in gammas])
+        self.table = envelope_table(model.A, model.B, periods, samples_per_fast_period, max_samples)
 
     def peak_speed(self, state: np.ndarray, action: np.ndarray) -> float:
         """max over the look-ahead of ``|Vx|`` [m/s], input ``action`` held."""
-        return float(np.abs(self._phi_vx @ state + self._gamma_vx @ action).max())
+        return float(peak_speed(self.table, state, action))

@@ -9,7 +9,7 @@ from sail_env.physics import DEEP_DISH, FLAT, SEED, PlanarModel
 
 def _play(env_id, agent_cls, episodes, **env_kwargs):
     env = gym.make(env_id, **env_kwargs)
-    agent = agent_cls(env)
+    agent = agent_cls(env.unwrapped.episode_spec)
     results = []
     for episode in range(episodes):
         obs, _ = env.reset(seed=1000 + episode)
@@ -66,9 +66,9 @@ def test_lqr_at_the_seed_point_leaves_the_tilt_alone():
 
 def test_lqr_keeps_the_flat_sail_on_the_beam_during_the_window():
     env = gym.make("LightSail-v0", config="flat")
-    agent = LQRAgent(env)
+    agent = LQRAgent(env.unwrapped.episode_spec)
     obs, _ = env.reset(seed=0, options={"initial_state": {"x": 1e-3}})
-    for _ in range(env.unwrapped.n_steps - 1):
+    for _ in range(env.unwrapped.episode_spec.n_steps - 1):
         obs, _, terminated, _, info = env.step(agent.act(obs))
         assert not terminated
     assert abs(info["state"]["x"]) < 1e-3
@@ -79,5 +79,5 @@ def test_lqr_keeps_the_flat_sail_on_the_beam_during_the_window():
 
 def test_passive_agent_never_steers():
     env = gym.make("LightSail-v0")
-    agent = PassiveAgent(env)
+    agent = PassiveAgent(env.unwrapped.episode_spec)
     assert np.array_equal(agent.act(np.ones(5, dtype=np.float32)), np.zeros(2))

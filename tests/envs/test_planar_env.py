@@ -142,9 +142,9 @@ def test_unstable_sail_held_steady_in_the_window_diverges_in_the_coast():
 def test_light_delay_lags_observation_and_command():
     env = gym.make("LightSailRealistic-v0", sensor_noise_std=(0, 0, 0, 0), beam_jitter_m=0.0,
                    push_noise=0.0, parameter_spread=0.0)
-    inner = env.unwrapped
+    spec = env.unwrapped.episode_spec
     obs, info = env.reset(seed=3)
-    lag = inner.delay_steps(0)
+    lag = int(spec.delay_steps(0))
     assert lag == round(0.5 * 1e5 * 10.0**2 / 299_792_458.0 / 0.005) == 3
     states = [info["state"]]
     observations = [obs]
@@ -154,11 +154,11 @@ def test_light_delay_lags_observation_and_command():
         observations.append(obs)
     # The observation at step k shows the true state of step k − lag.
     for k in range(lag, 21):
-        shown = inner.observation_to_state(observations[k])
+        shown = spec.observation_to_state(observations[k])
         np.testing.assert_allclose(shown, list(states[k - lag].values()), rtol=1e-5)
     # The commands sent are in the observation, newest first.
     np.testing.assert_allclose(observations[5][5:9], [1.0, 0.0, 1.0, 0.0])
-    assert inner.history_length >= 2 * inner.delay_steps(inner.n_steps)
+    assert spec.history_length >= 2 * spec.delay_steps(spec.n_steps)
 
 
 def test_disturbances_change_the_outcome_but_stay_finite():

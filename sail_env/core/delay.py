@@ -1,0 +1,20 @@
+"""The light-delay rule, used by the episode core and by delay-compensating controllers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sail_env.physics.mission import one_way_light_delay_s
+
+
+def delay_steps(acceleration_m_s2: np.ndarray | float, control_start_s: float, dt: float,
+                steps: np.ndarray | int) -> np.ndarray:
+    """One-way light delay ``D(t)/c`` at control step ``steps``, rounded to whole steps.
+
+    The observation at step ``s`` shows the state of step ``s − delay(s)``; the command
+    sent at step ``j`` acts during every step ``s`` with ``s − delay(s) = j`` (the newest
+    command that has arrived is held). Ranging tells a ground station its distance, so a
+    controller may use this rule. Arguments broadcast; the result is an integer array.
+    """
+    t = control_start_s + np.asarray(steps) * dt
+    return np.rint(one_way_light_delay_s(np.asarray(acceleration_m_s2), t) / dt).astype(np.int64)

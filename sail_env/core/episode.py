@@ -1,0 +1,249 @@
+"""The episode core: light delay, commands in flight, observation, reward, coast and scoring,
+written once over N environments as arrays. ``LightSailEnv`` is the core with N = 1 and
+``LightSailVectorEnv`` the core with N environments: the same code runs both.
+
+Randomness. Each environment has its own ``numpy.random.Generator``. At reset it draws,
+in this order: the parameter factors (with spread), the cut-off time (with jitter), the
+launch state (unless given), then in one call every standard normal the episode's window
+can need (pre-control propagation, per-step beam jitter and push noise, sensor noise);
+the coast draws its normals when it comes. A batch of environments therefore plays
+exactly the episodes each would play alone with the same seed, whatever N is.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+from sail_env.core.spec import EpisodeSpec
+from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
+
+#: Reward: log10 of (pointing / tolerance) is clipped to this range.
+LOG_RATIO_RANGE = (-2.0, 3.0)
+SUCCESS_BONUS = 1.0
+DIVERGENCE_PENALTY = -10.0
+OBSERVATION_LIMIT = 1e3
+
+
+def log_ratio(pointing: np.ndarray) -> np.ndarray:
+    """``log10(pointing / tolerance)`` clipped to :data:`LOG_RATIO_RANGE` (zero pointing: the low end)."""
+    with np.errstate(divide="ignore"):
+        return np.clip(np.log10(pointing / POINTING_TOLERANCE_RAD), *LOG_RATIO_RANGE)
+
+
+@dataclasses.dataclass
+class StepResult:
+    """What one step of the core returns, per environment (arrays of length N)."""
+
+    observation: np.ndarray  # (N, D) float32
+    reward: np.ndarray
+    terminated: np.ndarray  # end of the window (scored) or divergence
+    diverged: np.ndarray
+    envelope_rad: np.ndarray  # largest |V⊥|/Vz with the applied command held
+    applied: np.ndarray  # (N, 2) beam input that acted during the step [SI]
+    terminal_pointing_rad: np.ndarray  # at cut-off; inf if diverged, NaN if still running
+    terminal_envelope_rad: np.ndarray
+    terminal_state: np.ndarray  # (N, 4) at cut-off (NaN if not scored)
+
+
+class EpisodeCore:
+    """N episodes of one :class:`EpisodeSpec`, stepped together.
+
+    Buffers are sized for the worst parameter draw: ``commands`` holds the sent commands
+    in a ring (newest at ``step − 1``), ``states`` the true states in a ring indexed by
+    ``step + lag0`` (the first shows the state ``lag0`` steps before control, which the
+    first delayed observation sees).
+    """
+
+    def __init__(self, spec: EpisodeSpec, num_envs: int) -> None:
+        self.spec, self.num_envs = spec, num_envs
+        plant, n, dist = spec.plant, num_envs, spec.disturbances
+        self.params = plant.params(np.ones((n, 5)))
+        self.rngs: list[np.random.Generator | None] = [None] * n
+        self.x = np.zeros((n, 4))
+        self.last_command = np.zeros((n, 2))
+        self.step_index = np.zeros(n, dtype=np.int64)
+        self.cutoff_s = np.full(n, spec.config.beam_cutoff_s)
+        self.speed_at_cutoff = plant.speed(self.params, self.cutoff_s)
+        self.finished = np.ones(n, dtype=bool)
+        self.delayed = dist.light_delay
+        if self.delayed:
+            self.lag0 = np.zeros(n, dtype=np.int64)
+            self.delay = np.zeros((n, spec.n_steps + spec.max_delay + 2), dtype=np.int64)
+            self.commands = np.zeros((n, max(spec.history_length, spec.max_delay + 1) + 1, 2))
+            self.states = np.zeros((n, spec.max_delay + 2, 4))
+        # Standard normals of the window, drawn at reset: jitter and push per step, sensor per observation.
+        self.noise_steps = spec.n_steps + spec.max_delay + 2
+        self.jitter = np.zeros((n, self.noise_steps)) if dist.beam_jitter_m else None
+        self.push = np.zeros((n, self.noise_steps)) if dist.push_noise else None
+        self.sensor = np.zeros((n, spec.n_steps + 1, 4)) if dist.any_sensor_noise else None
+        self._rows = np.arange(n)
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, index: np.ndarray, rngs: Sequence[np.random.Generator],
+              initial_states: np.ndarray | None = None) -> None:
+        """Start new episodes in environments ``index``, each drawing from its generator ``rngs[i]``.
+
+        ``initial_states`` (k, 4) replaces the drawn launch states.
+        """
+        spec, plant, dist = self.spec, self.spec.plant, self.spec.disturbances
+        k = len(index)
+        factors, cutoff, launch = np.ones((k, 5)), np.full(k, spec.config.beam_cutoff_s), np.empty((k, 4))
+        for i, rng in enumerate(rngs):
+            factors[i] = plant.draw(rng)
+            if dist.cutoff_jitter_s:
+                cutoff[i] += rng.uniform(-dist.cutoff_jitter_s, dist.cutoff_jitter_s)
+            if initial_states is None:
+                launch[i] = rng.uniform(-spec.start_half_widths, spec.start_half_widths)
+        if initial_states is not None:
+            launch[:] = initial_states
+        params = plant.params(factors)
+        if not params.shared:
+            self.params.put(index, params)
+        for i, rng in zip(index, rngs):
+            self.rngs[i] = rng
+        self.cutoff_s[index] = cutoff
+        self.speed_at_cutoff[index] = plant.speed(params, cutoff)
+        lag0 = spec.delay_steps(0, params.acceleration) * np.ones(k, dtype=np.int64)
+        pre_control = spec.config.control_start_s - lag0 * spec.dt
+        pre_pieces = plant.coast_pieces(params, pre_control) if plant.noisy else np.zeros(k, dtype=np.int64)
+        sizes = self._normal_sizes(int(pre_pieces.max(initial=0)))
+        normals = np.stack([rng.standard_normal(sum(sizes)) for rng in rngs]) if sum(sizes) else None
+        pre_normals = None
+        if normals is not None:
+            pre, jitter, push, sensor = np.split(normals, np.cumsum(sizes)[:-1], axis=1)
+            pre_normals = pre.reshape(k, -1, 4)
+            if self.jitter is not None:
+                self.jitter[index] = jitter
+            if self.push is not None:
+                self.push[index] = push
+            if self.sensor is not None:
+                self.sensor[index] = sensor.reshape(k, -1, 4)
+
+        x = launch
+        if np.any(pre_control > 0):
+            x, _ = plant.coast(params, launch, np.zeros((k, 2)), pre_control, pre_normals)
+        self.step_index[index] = 0
+        self.finished[index] = False
+        if self.delayed:
+            self.lag0[index] = lag0
+            self.delay[index] = spec.delay_steps(np.arange(self.delay.shape[1]), params.acceleration[:, None])
+            self.commands[index] = 0.0
+            self.states[index, 0] = x
+            # The light-delayed first observation shows the state lag0 steps before control.
+            for s in range(int(lag0.max(initial=0))):
+                moving = s < lag0
+                x = np.where(moving[:, None], self._physics_step(index, params, x, np.zeros((k, 2)), s), x)
+                self.states[index[moving], s + 1] = x[moving]
+        self.x[index] = x
+
+    def _normal_sizes(self, pre_pieces: int) -> tuple[int, int, int, int]:
+        """Standard normals per environment: pre-control, jitter, push, sensor."""
+        return (4 * pre_pieces, 0 if self.jitter is None else self.noise_steps,
+                0 if self.push is None else self.noise_steps, 0 if self.sensor is None else self.sensor[0].size)
+
+    # ------------------------------------------------------------------ step
+    def _physics_step(self, index: np.ndarray, params, x: np.ndarray, u: np.ndarray,
+                      noise_column: np.ndarray | int) -> np.ndarray:
+        """One plant step of environments ``index`` with the per-step noise of column ``noise_column``."""
+        if self.jitter is not None:
+            u = u.copy()
+            u[:, 0] += self.spec.disturbances.beam_jitter_m * self.jitter[index, noise_column]
+        push = None if self.push is None else self.spec.disturbances.push_noise * self.push[index, noise_column]
+        return self.spec.plant.step(params, x, u, push)
+
+    def _applied(self, index: np.ndarray, step: np.ndarray, newest: np.ndarray | int) -> np.ndarray:
+        """The command acting during ``step``: the newest arrived (at most ``newest``, the last
+        sent), zero before any arrives."""
+        sent = np.minimum(step - self.delay[index, step], newest)
+        command = self.commands[index, sent % self.commands.shape[1]]
+        return np.where((sent >= 0)[:, None], command, 0.0)
+
+    def step(self, action: np.ndarray) -> StepResult:
+        """Advance every environment by one control step with ``action`` (N, 2) in [-1, 1] (clipped)."""
+        spec, plant = self.spec, self.spec.plant
+        command = np.clip(action, -1.0, 1.0) * spec.action_scale
+        rows, step = self._rows, self.step_index
+        if self.delayed:
+            self.commands[rows, step % self.commands.shape[1]] = command
+            applied = self._applied(rows, step, step)
+        else:
+            applied = command
+        self.last_command = command
+        noise_column = step + self.lag0 if self.delayed else step
+        x = self._physics_step(rows, self.params, self.x, applied, noise_column)
+        self.x = x
+        self.step_index = step = step + 1
+        if self.delayed:
+            self.states[rows, (step + self.lag0) % self.states.shape[1]] = x
+
+        diverged = plant.diverged(self.params, x)
+        envelope = plant.peak_speed(self.params, x, applied) / self.speed_at_cutoff
+        reward = -log_ratio(envelope) / spec.n_steps
+        terminated = diverged | (step >= spec.n_steps)
+        nan = np.full(self.num_envs, np.nan)
+        pointing, terminal_envelope, terminal_state = nan.copy(), nan.copy(), np.full((self.num_envs, 4), np.nan)
+        scored = np.flatnonzero(terminated & ~diverged)
+        if len(scored):
+            final, final_input, coast_diverged = self._coast(scored)
+            params = self.params.take(scored)
+            pointing[scored] = plant.pointing(params, final, self.cutoff_s[scored])
+            terminal_envelope[scored] = plant.peak_speed(params, final, final_input) / self.speed_at_cutoff[scored]
+            terminal_state[scored] = final
+            success = pointing[scored] <= POINTING_TOLERANCE_RAD
+            reward[scored] += -log_ratio(pointing[scored]) + np.where(success, SUCCESS_BONUS, 0.0)
+            diverged[scored] = coast_diverged
+        pointing[diverged] = terminal_envelope[diverged] = np.inf
+        reward[diverged] = DIVERGENCE_PENALTY
+        self.finished |= terminated
+        return StepResult(self.observe(), reward, terminated, diverged, envelope, applied,
+                          pointing, terminal_envelope, terminal_state)
+
+    # ------------------------------------------------------------------ coast and observation
+    def _coast(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """From the end of the window to cut-off: the commands still in flight step by step, then
+        the last command held to cut-off. Returns the end states, the held inputs and divergence."""
+        spec, plant = self.spec, self.spec.plant
+        params = self.params.take(index)
+        x, step = self.x[index], self.step_index[index].copy()
+        if self.delayed:
+            last = spec.n_steps - 1
+            while True:
+                in_flight = step - self.delay[index, step] < last
+                if not in_flight.any():
+                    break
+                applied = self._applied(index, step, last)
+                moved = self._physics_step(index, params, x, applied, step + self.lag0[index])
+                x = np.where(in_flight[:, None], moved, x)
+                step = step + in_flight
+        held = self.last_command[index]
+        remaining = np.maximum(self.cutoff_s[index] - (spec.config.control_start_s + step * spec.dt), 0.0)
+        normals = None
+        if plant.noisy:
+            pieces = int(plant.coast_pieces(params, remaining).max())
+            normals = np.stack([self.rngs[i].standard_normal((pieces, 4)) for i in index])
+        final, diverged = plant.coast(params, x, held, remaining, normals)
+        return final, held, diverged
+
+    def observe(self, index: np.ndarray | None = None) -> np.ndarray:
+        """Observations (k, D) of environments ``index`` (default all) at their current step."""
+        spec = self.spec
+        index = self._rows if index is None else index
+        step = self.step_index[index]
+        if self.delayed:
+            shown = np.maximum(step - self.delay[index, step] + self.lag0[index], 0)
+            measured = self.states[index, shown % self.states.shape[1]]
+        else:
+            measured = self.x[index]
+        if self.sensor is not None:
+            measured = measured + spec.sensor_noise_std * self.sensor[index, step]
+        parts = [measured / spec.state_scale, (2.0 * step / spec.n_steps - 1.0)[:, None]]
+        if spec.history_length:
+            sent = step[:, None] - 1 - np.arange(spec.history_length)
+            recent = self.commands[index[:, None], sent % self.commands.shape[1]]
+            recent = np.where((sent >= 0)[..., None], recent / spec.action_scale, 0.0)
+            parts.append(recent.reshape(len(step), -1))
+        obs = np.concatenate(parts, axis=1)
+        return np.clip(obs, -OBSERVATION_LIMIT, OBSERVATION_LIMIT).astype(np.float32)

@@ -1,0 +1,152 @@
+"""What defines a task apart from its physics: timing, action and observation scales, start
+distribution, disturbances. Controllers read it instead of an env's internals."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from sail_env.core.delay import delay_steps
+from sail_env.physics.config import PRESETS, SailConfig
+from sail_env.physics.plant import PlanarPlant
+
+#: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
+DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
+#: Observation scales: the state is divided by these (rates by the model's fastest rate too).
+POSITION_SCALE_M = 1e-2
+TILT_SCALE_RAD = 1e-3
+#: Round-off allowed between times computed as ``start + steps · dt`` and configured times.
+TIME_TOLERANCE_S = 1e-9
+
+
+@dataclasses.dataclass(frozen=True)
+class Disturbances:
+    """What a ground station faces. Every field is off (zero / False) by default.
+
+    Attributes:
+        sensor_noise_std: Standard deviation of the measurement of each state component
+            ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``, white, per observation.
+        beam_jitter_m: Standard deviation of the beam's landing offset per control step
+            (white, held for the step); over the coast the same spectral density
+            ``σ² dt`` acts as continuous white noise.
+        push_noise: Relative standard deviation of the push ``F`` per control step; the
+            same spectral density acts over the coast.
+        cutoff_jitter_s: Half-width of a uniform draw of the beam cut-off time around
+            its nominal value; a few ms already randomise the oscillation's phase.
+        light_delay: Delay observations and commands by the light travel time
+            ``D(t)/c`` each way, rounded to whole control steps.
+        parameter_spread: Relative half-width of a uniform per-episode draw of each mass,
+            the strut and CoM lengths and the radius of curvature.
+    """
+
+    sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    beam_jitter_m: float = 0.0
+    push_noise: float = 0.0
+    cutoff_jitter_s: float = 0.0
+    light_delay: bool = False
+    parameter_spread: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "sensor_noise_std", tuple(float(s) for s in self.sensor_noise_std))
+        if len(self.sensor_noise_std) != 4 or not all(
+                math.isfinite(s) and s >= 0 for s in self.sensor_noise_std):
+            raise ValueError(
+                f"sensor_noise_std must be 4 finite values >= 0, got {self.sensor_noise_std}")
+        for name in ("beam_jitter_m", "push_noise", "cutoff_jitter_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0, got {value}")
+        if not 0 <= self.parameter_spread < 0.5:
+            raise ValueError(f"parameter_spread must be in [0, 0.5), got {self.parameter_spread}")
+
+    @property
+    def any_sensor_noise(self) -> bool:
+        return any(s > 0 for s in self.sensor_noise_std)
+
+
+class EpisodeSpec:
+    """A task: the plant and everything the episode core adds to it (validated here).
+
+    Attributes:
+        config: The nominal :class:`SailConfig`.
+        plant: The batched physics (:class:`~sail_env.physics.plant.PlanarPlant`).
+        nominal: The nominal linear model (what a controller designs on).
+        disturbances: The :class:`Disturbances`.
+        dt, n_steps: Control step [s] and number of steps in the control window.
+        action_scale: Physical beam input at action +1, ``(d [m], ψ [rad])``.
+        state_scale: Divides the SI state in the observation.
+        start_half_widths: Uniform start distribution at launch, ``(X, Vx, θ, ω)``.
+        history_length: Commands shown in the observation (the largest round trip with
+            light delay, with a step of margin each way for the parameter draw; else 0).
+        max_delay: Largest one-way delay [steps] any parameter draw can see up to the
+            last command's arrival (sizes the core's buffers).
+    """
+
+    def __init__(self, config: SailConfig | str = "seed", *, max_beam_offset_m: float = 0.02,
+                 max_beam_tilt_rad: float = 2e-3,
+                 start_half_widths: Sequence[float] = DEFAULT_START_HALF_WIDTHS,
+                 disturbances: Disturbances = Disturbances()) -> None:
+        if isinstance(config, str):
+            if config not in PRESETS:
+                raise ValueError(f"config must be a SailConfig or one of {sorted(PRESETS)}, got {config!r}")
+            config = PRESETS[config]
+        for name, value in (("max_beam_offset_m", max_beam_offset_m), ("max_beam_tilt_rad", max_beam_tilt_rad)):
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {value}")
+        widths = tuple(float(w) for w in start_half_widths)
+        if len(widths) != 4 or not all(math.isfinite(w) and w >= 0 for w in widths):
+            raise ValueError(f"start_half_widths must be 4 finite values >= 0, got {widths}")
+        self.config = config
+        self.disturbances = disturbances
+        self.plant = PlanarPlant(config, disturbances.parameter_spread, disturbances.beam_jitter_m,
+                                 disturbances.push_noise)
+        self.nominal = self.plant.nominal
+        self.dt = config.control_step_s
+        self.n_steps = config.control_steps
+        self.action_scale = np.array([max_beam_offset_m, max_beam_tilt_rad])
+        self.start_half_widths = np.array(widths)
+        self.sensor_noise_std = np.array(disturbances.sensor_noise_std)
+        rate = self.plant.rate_scale()
+        self.state_scale = np.array([POSITION_SCALE_M, POSITION_SCALE_M * rate, TILT_SCALE_RAD, TILT_SCALE_RAD * rate])
+        if disturbances.light_delay:
+            self.history_length = 2 * (int(self.delay_steps(self.n_steps)) + 1)
+            fastest = config.axial_acceleration_m_s2 / (1 - disturbances.parameter_spread)
+            self.max_delay = int(delay_steps(fastest, config.control_start_s, self.dt,
+                                             self.n_steps + self.history_length)) + 1
+        else:
+            self.history_length = self.max_delay = 0
+        self._check_cutoff()
+
+    def _check_cutoff(self) -> None:
+        """The earliest cut-off must come after the last command has reached the sail (to within
+        :data:`TIME_TOLERANCE_S`, so that a window ending exactly at the cut-off is accepted)."""
+        c, jitter = self.config, self.disturbances.cutoff_jitter_s
+        last_arrival = c.control_start_s + (self.n_steps + self.max_delay) * self.dt
+        if c.beam_cutoff_s - jitter < last_arrival - TIME_TOLERANCE_S:
+            raise ValueError(
+                f"beam_cutoff_s - cutoff_jitter_s = {c.beam_cutoff_s - jitter:.6g} s must be >= the end of "
+                f"control with the commands in flight, control_start_s + (steps + delay) * dt = "
+                f"{last_arrival:.6g} s")
+
+    @property
+    def observation_size(self) -> int:
+        return 5 + 2 * self.history_length
+
+    def delay_steps(self, step: np.ndarray | int, acceleration_m_s2: np.ndarray | float | None = None) -> np.ndarray:
+        """One-way light delay in steps at control ``step`` (zero without light delay); see
+        :func:`sail_env.core.delay.delay_steps`. The nominal acceleration unless given."""
+        if not self.disturbances.light_delay:
+            return np.zeros(np.shape(step), dtype=np.int64)
+        accel = self.config.axial_acceleration_m_s2 if acceleration_m_s2 is None else acceleration_m_s2
+        return delay_steps(accel, self.config.control_start_s, self.dt, step)
+
+    def observation_to_state(self, observation: np.ndarray) -> np.ndarray:
+        """The (possibly delayed and noisy) measured SI state inside an observation."""
+        return np.asarray(observation[..., :4], dtype=np.float64) * self.state_scale
+
+    def input_to_action(self, beam_input: np.ndarray) -> np.ndarray:
+        """Normalised action for a physical beam input ``(d [m], ψ [rad])``, clipped."""
+        return np.clip(np.asarray(beam_input) / self.action_scale, -1.0, 1.0).astype(np.float32)

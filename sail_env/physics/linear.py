@@ -1,0 +1,79 @@
+"""Batched linear algebra for linear sail models: every array may lead with a batch axis.
+
+* :func:`zoh_discretize`: the exact zero-order-hold step of ``ẋ = A x + B u``.
+* :func:`push_expansion`: the same step when the push is scaled by ``1 + ε``, as a
+  polynomial in ``ε`` whose coefficients are computed once (for the per-step push noise).
+* :func:`sample_gaussian`: draws from ``N(mean, cov)`` that stay correct when the
+  covariance is huge, badly scaled or singular.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+
+def augmented(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``[[A, B], [0, 0]]``: the generator of ``(x, u)`` with ``u`` held."""
+    n, m = b.shape[-2:]
+    out = np.zeros((*a.shape[:-2], n + m, n + m))
+    out[..., :n, :n] = a
+    out[..., :n, n:] = b
+    return out
+
+
+def zoh_discretize(a: np.ndarray, b: np.ndarray, dt: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact step ``x⁺ = Φ x + Γ u`` over ``dt`` with ``u`` held: ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] dt)``.
+
+    ``a`` (..., n, n), ``b`` (..., n, m) and ``dt`` (scalar or the batch shape) broadcast.
+    """
+    dt = np.asarray(dt, dtype=float)
+    if not np.all(dt >= 0):
+        raise ValueError(f"dt must be >= 0, got {dt}")
+    n = a.shape[-1]
+    exp = scipy.linalg.expm(augmented(a, b) * dt[..., None, None])
+    return exp[..., :n, :n], exp[..., :n, n:]
+
+
+def push_expansion(a: np.ndarray, b: np.ndarray, a_push: np.ndarray, b_push: np.ndarray,
+                   dt: float) -> np.ndarray:
+    """Coefficients ``C_k`` (k = 0, 1, 2) of ``[Φ(ε), Γ(ε)] = C_0 + ε C_1 + ε² C_2 + O(ε³)``.
+
+    ``Φ(ε), Γ(ε)`` is the exact step of ``A + ε A_F``, ``B + ε B_F`` (the push scaled by
+    ``1 + ε``). With ``X = [[A, B], [0, 0]] dt`` and ``E`` the same built of ``A_F, B_F``,
+    the exponential of the block matrix ``[[X, E, 0], [0, X, E], [0, 0, X]]`` holds
+    ``e^X`` on its diagonal, the first derivative ``d/dε e^{X+εE}`` in block (0, 1) and
+    half the second in block (0, 2) (the exponential of a block-Toeplitz generator is
+    the Taylor series of ``e^{X+εE}`` in ``ε``; Van Loan 1978 uses the same device).
+    The error is the third-order term: for a push noise of 1 % per step it is ~1e-9 of
+    the state per step (measured in the tests against ``expm``).
+
+    Returns an array (..., 3, n, n + m): the rows of ``[Φ, Γ]`` for each power of ``ε``.
+    """
+    n = a.shape[-1]
+    x, e = augmented(a, b) * dt, augmented(a_push, b_push) * dt
+    k = x.shape[-1]
+    block = np.zeros((*x.shape[:-2], 3 * k, 3 * k))
+    for i in range(3):
+        block[..., i * k:(i + 1) * k, i * k:(i + 1) * k] = x
+    for i in range(2):
+        block[..., i * k:(i + 1) * k, (i + 1) * k:(i + 2) * k] = e
+    exp = scipy.linalg.expm(block)
+    return np.stack([exp[..., :n, j * k:(j + 1) * k] for j in range(3)], axis=-3)
+
+
+def sample_gaussian(mean: np.ndarray, cov: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """``mean + L ξ`` with ``L Lᵀ = cov`` for standard normals ``ξ`` (batched over leading axes).
+
+    The covariance is first scaled to a correlation matrix by its diagonal, so the
+    symmetric eigensolver sees entries of order one whatever the physical scales
+    (a coast of minutes can leave variances of 1e-20 m² beside 1e+10 (m/s)²); a
+    component with zero variance stays exactly at its mean. Negative eigenvalues from
+    round-off are set to zero (the covariance is positive semi-definite).
+    """
+    std = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0.0, None))
+    safe = np.where(std > 0, std, 1.0)
+    corr = cov / (safe[..., :, None] * safe[..., None, :])
+    eigval, eigvec = np.linalg.eigh(corr)
+    root = eigvec * np.sqrt(np.clip(eigval, 0.0, None))[..., None, :]
+    return mean + std * np.einsum("...ij,...j->...i", root, normals)
