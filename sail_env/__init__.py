@@ -5,6 +5,7 @@ Importing the package registers the planar task suite with Gymnasium::
     import gymnasium as gym
     import sail_env  # noqa: F401  (or gym.make("sail_env:LightSail-v0"))
     env = gym.make("LightSail-v0")
+    envs = gym.make_vec("LightSail-v0", num_envs=1024, vectorization_mode="vector_entry_point")
 """
 
 from gymnasium.envs.registration import register, registry
@@ -15,4 +16,5 @@ __version__ = "0.1.0"
 
 for _task_id, _kwargs in TASKS.items():
     if _task_id not in registry:
-        register(id=_task_id, entry_point="sail_env.envs.planar:LightSailEnv", kwargs=_kwargs)
+        register(id=_task_id, entry_point="sail_env.envs.planar:LightSailEnv",
+                 vector_entry_point="sail_env.envs.vector:LightSailVectorEnv", kwargs=_kwargs)

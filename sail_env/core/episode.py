@@ -18,6 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sail_env.core.spec import EpisodeSpec
+from sail_env.physics.linear import sample_uniform
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 #: Reward: log10 of (pointing / tolerance) is clipped to this range.
@@ -29,8 +30,9 @@ OBSERVATION_LIMIT = 1e3
 
 def log_ratio(pointing: np.ndarray) -> np.ndarray:
     """``log10(pointing / tolerance)`` clipped to :data:`LOG_RATIO_RANGE` (zero pointing: the low end)."""
-    with np.errstate(divide="ignore"):
-        return np.clip(np.log10(pointing / POINTING_TOLERANCE_RAD), *LOG_RATIO_RANGE)
+    low, high = LOG_RATIO_RANGE
+    ratio = np.log10(np.maximum(pointing, 1e-300) / POINTING_TOLERANCE_RAD)
+    return np.minimum(np.maximum(ratio, low), high)
 
 
 @dataclasses.dataclass
@@ -43,9 +45,10 @@ class StepResult:
     diverged: np.ndarray
     envelope_rad: np.ndarray  # largest |V⊥|/Vz with the applied command held
     applied: np.ndarray  # (N, 2) beam input that acted during the step [SI]
-    terminal_pointing_rad: np.ndarray  # at cut-off; inf if diverged, NaN if still running
-    terminal_envelope_rad: np.ndarray
-    terminal_state: np.ndarray  # (N, 4) at cut-off (NaN if not scored)
+    # Only when an episode terminated (else None): at cut-off; inf if diverged, NaN if still running.
+    terminal_pointing_rad: np.ndarray | None = None
+    terminal_envelope_rad: np.ndarray | None = None
+    terminal_state: np.ndarray | None = None  # (N, 4), NaN where not scored
 
 
 class EpisodeCore:
@@ -94,9 +97,9 @@ class EpisodeCore:
         for i, rng in enumerate(rngs):
             factors[i] = plant.draw(rng)
             if dist.cutoff_jitter_s:
-                cutoff[i] += rng.uniform(-dist.cutoff_jitter_s, dist.cutoff_jitter_s)
+                cutoff[i] += sample_uniform(rng, -dist.cutoff_jitter_s, dist.cutoff_jitter_s, 1)[0]
             if initial_states is None:
-                launch[i] = rng.uniform(-spec.start_half_widths, spec.start_half_widths)
+                launch[i] = sample_uniform(rng, -spec.start_half_widths, spec.start_half_widths, 4)
         if initial_states is not None:
             launch[:] = initial_states
         params = plant.params(factors)
@@ -183,9 +186,19 @@ class EpisodeCore:
         envelope = plant.peak_speed(self.params, x, applied) / self.speed_at_cutoff
         reward = -log_ratio(envelope) / spec.n_steps
         terminated = diverged | (step >= spec.n_steps)
-        nan = np.full(self.num_envs, np.nan)
-        pointing, terminal_envelope, terminal_state = nan.copy(), nan.copy(), np.full((self.num_envs, 4), np.nan)
-        scored = np.flatnonzero(terminated & ~diverged)
+        result = StepResult(None, reward, terminated, diverged, envelope, applied)
+        if terminated.any():
+            self._score(result)
+        self.finished |= terminated
+        result.observation = self.observe()
+        return result
+
+    def _score(self, result: StepResult) -> None:
+        """Coast the environments whose window has ended and score them; penalise divergence."""
+        plant, reward, diverged = self.spec.plant, result.reward, result.diverged
+        pointing, terminal_envelope = np.full(self.num_envs, np.nan), np.full(self.num_envs, np.nan)
+        terminal_state = np.full((self.num_envs, 4), np.nan)
+        scored = np.flatnonzero(result.terminated & ~diverged)
         if len(scored):
             final, final_input, coast_diverged = self._coast(scored)
             params = self.params.take(scored)
@@ -197,9 +210,8 @@ class EpisodeCore:
             diverged[scored] = coast_diverged
         pointing[diverged] = terminal_envelope[diverged] = np.inf
         reward[diverged] = DIVERGENCE_PENALTY
-        self.finished |= terminated
-        return StepResult(self.observe(), reward, terminated, diverged, envelope, applied,
-                          pointing, terminal_envelope, terminal_state)
+        result.terminal_pointing_rad, result.terminal_envelope_rad = pointing, terminal_envelope
+        result.terminal_state = terminal_state
 
     # ------------------------------------------------------------------ coast and observation
     def _coast(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -246,4 +258,4 @@ class EpisodeCore:
             recent = np.where((sent >= 0)[..., None], recent / spec.action_scale, 0.0)
             parts.append(recent.reshape(len(step), -1))
         obs = np.concatenate(parts, axis=1)
-        return np.clip(obs, -OBSERVATION_LIMIT, OBSERVATION_LIMIT).astype(np.float32)
+        return np.minimum(np.maximum(obs, -OBSERVATION_LIMIT), OBSERVATION_LIMIT).astype(np.float32)

@@ -156,7 +156,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         initial = (options or {}).get("initial_state")
-        self.core.reset(_ONE, [self.np_random], None if initial is None else _initial_state(initial)[None])
+        self.core.reset(_ONE, [self.np_random], None if initial is None else initial_state(initial)[None])
         if self.render_mode is not None:
             self._trajectory = [(self._time(), self.core.x[0].copy(), np.zeros(2))]
         return self.core.observe()[0], self._info()
@@ -211,7 +211,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         return {"state": _named(self.core.x[0]), "t": self._time()}
 
 
-def _initial_state(given: Mapping[str, float]) -> np.ndarray:
+def initial_state(given: Mapping[str, float]) -> np.ndarray:
     """The launch state from ``options["initial_state"]`` (missing keys are zero)."""
     unknown = set(given) - set(STATE_NAMES)
     if unknown:

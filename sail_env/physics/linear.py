@@ -4,7 +4,7 @@
 * :func:`push_expansion`: the same step when the push is scaled by ``1 + ε``, as a
   polynomial in ``ε`` whose coefficients are computed once (for the per-step push noise).
 * :func:`sample_gaussian`: draws from ``N(mean, cov)`` that stay correct when the
-  covariance is huge, badly scaled or singular.
+  covariance is huge, badly scaled or singular; :func:`sample_uniform`.
 """
 
 from __future__ import annotations
@@ -77,3 +77,10 @@ def sample_gaussian(mean: np.ndarray, cov: np.ndarray, normals: np.ndarray) -> n
     eigval, eigvec = np.linalg.eigh(corr)
     root = eigvec * np.sqrt(np.clip(eigval, 0.0, None))[..., None, :]
     return mean + std * np.einsum("...ij,...j->...i", root, normals)
+
+
+def sample_uniform(rng: np.random.Generator, low: np.ndarray | float, high: np.ndarray | float,
+                   size: int) -> np.ndarray:
+    """``rng.uniform(low, high, size)``, the same numbers, without its per-call argument checks
+    (15 µs against 1 µs for four numbers; the episode core draws once per environment)."""
+    return low + (high - low) * rng.random(size)

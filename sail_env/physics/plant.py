@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg
 
 from sail_env.physics.config import SailConfig, moment_of_inertia
-from sail_env.physics.linear import push_expansion, sample_gaussian, zoh_discretize
+from sail_env.physics.linear import push_expansion, sample_gaussian, sample_uniform, zoh_discretize
 from sail_env.physics.noise import WhiteNoise, mean_and_covariance, moment_generator, second_moment
 from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
                                      rates, system_matrices)
@@ -42,7 +42,7 @@ class PlantParams:
     step: np.ndarray  # (·, P·4, 6) one control step: rows of [Φ Γ] for ε⁰ (and ε¹, ε² with push noise)
     envelope: np.ndarray  # (·, S, 6) look-ahead table of |Vx| (pointing.envelope_table)
     acceleration: np.ndarray  # (·,) axial acceleration F/m [m/s²]
-    com_distance: np.ndarray  # (·,) Lc [m]
+    limits: np.ndarray  # (·, 2) largest |X| [m] and |θ| [rad] inside the beam and the small-angle regime
     growth: np.ndarray  # (·,) largest growth rate [1/s]
     shared: bool
 
@@ -119,7 +119,7 @@ class PlanarPlant:
         """Per-episode factors of :data:`SPREAD_FIELDS` (all one without spread; draws nothing then)."""
         if not self.parameter_spread:
             return np.ones(len(SPREAD_FIELDS))
-        return rng.uniform(1 - self.parameter_spread, 1 + self.parameter_spread, len(SPREAD_FIELDS))
+        return sample_uniform(rng, 1 - self.parameter_spread, 1 + self.parameter_spread, len(SPREAD_FIELDS))
 
     def params(self, factors: np.ndarray) -> PlantParams:
         """Parameters for environments with the given factors (k, 5); shared without spread."""
@@ -139,7 +139,9 @@ class PlanarPlant:
             coeffs = np.concatenate([phi, gamma], axis=-1)[:, None]
         step = coeffs.reshape(len(factors), -1, 6)
         growth, _ = rates(a)
-        return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), lc, growth, shared)
+        # |Lc θ| ≤ a and |θ| ≤ MAX_TILT_RAD in one bound on |θ|.
+        limits = np.stack([np.full(len(lc), c.aperture_radius_m), np.minimum(c.aperture_radius_m / lc, MAX_TILT_RAD)], 1)
+        return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), limits, growth, shared)
 
     # ------------------------------------------------------------------ physics
     def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
@@ -154,10 +156,8 @@ class PlanarPlant:
     def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
         """The sail has left the beam (``|X|`` or ``|Lc θ|`` beyond the aperture) or the small-angle
         regime; NaN counts as left."""
-        radius = self.config.aperture_radius_m
-        theta = x[:, THETA]
-        inside = (np.abs(x[:, X]) <= radius) & (np.abs(p.com_distance * theta) <= radius) & (np.abs(theta) <= MAX_TILT_RAD)
-        return ~inside
+        inside = np.abs(x[:, [X, THETA]]) <= p.limits
+        return ~(inside[:, 0] & inside[:, 1])
 
     def peak_speed(self, p: PlantParams, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Largest ``|Vx|`` [m/s] the sail would reach with ``u`` held (the envelope)."""

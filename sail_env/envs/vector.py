@@ -1,0 +1,132 @@
+"""``LightSailVectorEnv``: N planar light sails stepped as one NumPy batch.
+
+The same episode core (:class:`~sail_env.core.EpisodeCore`) as :class:`LightSailEnv`,
+with N environments: environment ``i`` seeded with ``seed + i`` plays exactly the
+episodes a ``LightSailEnv`` seeded with ``seed + i`` plays, to round-off. Every planar
+task and keyword is supported (light delay with per-environment command queues, sensor
+noise, jitter, push noise, cut-off jitter, parameter spread with per-environment models).
+
+    envs = gym.make_vec("LightSail-v0", num_envs=1024, vectorization_mode="vector_entry_point")
+
+Autoreset is ``SAME_STEP``: when an episode ends, the returned observation already
+belongs to the next episode; the last one's is in ``info["final_obs"]`` and its score in
+``info["final_info"]`` (``terminal_pointing_rad``, ``terminal_envelope_rad``,
+``is_success``, ``diverged``, ``cutoff_s``), each with its ``_key`` mask, as Gymnasium's
+``SyncVectorEnv`` reports them. No other info is built per step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
+from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, Disturbances, EpisodeSpec
+from sail_env.envs.planar import initial_state
+from sail_env.physics.config import SailConfig
+from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
+
+
+class LightSailVectorEnv(VectorEnv):
+    """N planar light-sail episodes in one NumPy batch; the arguments are ``LightSailEnv``'s."""
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: SailConfig | str = "seed",
+        render_mode: str | None = None,
+        *,
+        max_beam_offset_m: float = 0.02,
+        max_beam_tilt_rad: float = 2e-3,
+        start_half_widths: tuple[float, float, float, float] = DEFAULT_START_HALF_WIDTHS,
+        sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        beam_jitter_m: float = 0.0,
+        push_noise: float = 0.0,
+        cutoff_jitter_s: float = 0.0,
+        light_delay: bool = False,
+        parameter_spread: float = 0.0,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if render_mode is not None:
+            raise ValueError(f"LightSailVectorEnv does not render; render_mode must be None, got {render_mode!r}")
+        disturbances = Disturbances(sensor_noise_std, beam_jitter_m, push_noise, cutoff_jitter_s,
+                                    light_delay, parameter_spread)
+        self.episode_spec = spec = EpisodeSpec(config, max_beam_offset_m=max_beam_offset_m,
+                                               max_beam_tilt_rad=max_beam_tilt_rad,
+                                               start_half_widths=start_half_widths, disturbances=disturbances)
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.single_observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT,
+                                                   (spec.observation_size,), np.float32)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.core = EpisodeCore(spec, self.num_envs)
+        self._rngs: list[np.random.Generator] | None = None
+        self._all = np.arange(self.num_envs)
+        self._truncated = np.zeros(self.num_envs, dtype=bool)
+
+    def reset(self, *, seed: int | Sequence[int | None] | None = None,
+              options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every environment; ``seed`` an int seeds environment ``i`` with ``seed + i``.
+
+        ``options={"initial_state": {...}}`` starts every environment from that state
+        (``LightSailEnv``'s keys), ``{"initial_state": array (N, 4)}`` each from its row.
+        """
+        super().reset(seed=seed)
+        if seed is None:
+            seeds: Sequence[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"seed must be an int or {self.num_envs} seeds, got {len(seeds)}")
+        if self._rngs is None or seed is not None:
+            self._rngs = [seeding.np_random(s)[0] for s in seeds]
+        given = (options or {}).get("initial_state")
+        if isinstance(given, Mapping):
+            given = np.tile(initial_state(given), (self.num_envs, 1))
+        elif given is not None:
+            given = np.asarray(given, dtype=np.float64)
+            if given.shape != (self.num_envs, 4) or not np.all(np.isfinite(given)):
+                raise ValueError(f"initial_state must be a dict or a finite array of shape ({self.num_envs}, 4)")
+        self.core.reset(self._all, self._rngs, given)
+        return self.core.observe(), {}
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        actions = np.asarray(actions)
+        if actions.shape != (self.num_envs, 2) or actions.dtype.kind not in "fiu":
+            raise ValueError(f"actions must be real numbers of shape ({self.num_envs}, 2), got {actions.shape}")
+        if not np.isfinite(actions).all():
+            raise ValueError("actions must be finite")
+        if self._rngs is None:
+            raise RuntimeError("step() called before reset()")
+        result = self.core.step(actions)
+        obs, terminated = result.observation, result.terminated
+        info: dict[str, Any] = {}
+        if terminated.any():
+            done = np.flatnonzero(terminated)
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            final_obs[done] = list(obs[done])
+            scores = {"terminal_pointing_rad": result.terminal_pointing_rad,
+                      "terminal_envelope_rad": result.terminal_envelope_rad,
+                      "is_success": result.terminal_pointing_rad <= POINTING_TOLERANCE_RAD,
+                      "diverged": result.diverged, "cutoff_s": self.core.cutoff_s.copy()}
+            final_info: dict[str, Any] = {}
+            for key, value in scores.items():
+                final_info[key], final_info[f"_{key}"] = value, terminated
+            info = {"final_obs": final_obs, "_final_obs": terminated, "final_info": final_info,
+                    "_final_info": terminated}
+            self.core.reset(done, [self._rngs[i] for i in done])
+            obs[done] = self.core.observe(done)
+        return obs, result.reward, terminated, self._truncated.copy(), info

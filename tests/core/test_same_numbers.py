@@ -1,0 +1,76 @@
+"""The episode core against the numbers of v0.1.0's scalar env (recorded before the core replaced
+it, in tests/data/episodes_v0_1_0.json), and the vector env against the single env."""
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sail_env  # noqa: F401
+from sail_env.physics import DEEP_DISH, SEED
+from sail_env.tasks import TASKS
+
+REFERENCE = json.loads((Path(__file__).parents[1] / "data" / "episodes_v0_1_0.json").read_text())
+CASES = {"LightSail-v0": {}, "LightSailDeepDish-v0": {}, "LightSail-v0|flat": {"config": "flat"},
+         "LightSail-v0|delay10s": {"config": SEED.replace(control_start_s=10.0), "light_delay": True},
+         "LightSailDeepDish-v0|delay10s": {"config": DEEP_DISH.replace(control_start_s=10.0), "light_delay": True}}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_noise_free_episodes_are_those_of_v0_1_0(case):
+    env = gym.make(case.split("|")[0], **CASES[case])
+    for recorded in REFERENCE[case]["episodes"]:
+        rng = np.random.default_rng(recorded["seed"])  # the recorded episodes' random actions
+        obs, _ = env.reset(seed=recorded["seed"])
+        np.testing.assert_array_equal(obs, recorded["first_obs"])
+        rewards, done = [], False
+        while not done:
+            obs, reward, terminated, truncated, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+            rewards.append(reward)
+            done = terminated or truncated
+            if len(rewards) == 7:
+                np.testing.assert_array_equal(obs, recorded["obs_7"])
+        np.testing.assert_allclose(rewards, recorded["rewards"], rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(obs, recorded["last_obs"])
+        assert info["terminal_pointing_rad"] == pytest.approx(recorded["pointing"], rel=1e-9)
+        assert info["is_success"] == recorded["success"] and info["diverged"] == recorded["diverged"]
+
+
+@pytest.mark.parametrize("env_id", sorted(TASKS))
+def test_vector_env_plays_the_single_envs_episodes(env_id):
+    """Environment i of the batch seeded with s is a single env seeded with s + i, across autoresets."""
+    n, steps = 5, 450  # two whole episodes and part of a third
+    actions = np.random.default_rng(0).uniform(-1, 1, (steps, n, 2)).astype(np.float32)
+    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    obs, _ = envs.reset(seed=10)
+    batch_obs, batch_rewards, batch_scores = [obs], [], []
+    for k in range(steps):
+        obs, reward, terminated, truncated, info = envs.step(actions[k])
+        batch_obs.append(obs)
+        batch_rewards.append(reward)
+        if terminated.any():
+            final = info["final_info"]
+            batch_scores += [(i, final["terminal_pointing_rad"][i], final["is_success"][i]) for i in np.flatnonzero(terminated)]
+            np.testing.assert_array_equal(info["_final_obs"], terminated)
+    batch_obs, batch_rewards = np.array(batch_obs), np.array(batch_rewards)
+    single_scores = []
+    for i in range(n):
+        env = gym.make(env_id)
+        obs, _ = env.reset(seed=10 + i)
+        observations, rewards = [obs], []
+        for k in range(steps):
+            obs, reward, terminated, truncated, info = env.step(actions[k, i])
+            rewards.append(reward)
+            if terminated:
+                single_scores.append((i, info["terminal_pointing_rad"], info["is_success"]))
+                obs, _ = env.reset()
+            observations.append(obs)
+        np.testing.assert_allclose(np.array(observations), batch_obs[:, i], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(rewards, batch_rewards[:, i], rtol=1e-12, atol=1e-12)
+    single_scores.sort(key=lambda s: s[0])
+    batch_scores.sort(key=lambda s: s[0])
+    assert len(single_scores) == len(batch_scores) >= 2 * n
+    for (i, p1, s1), (j, p2, s2) in zip(single_scores, batch_scores):
+        assert i == j and s1 == s2 and p1 == pytest.approx(p2, rel=1e-9)
