@@ -19,10 +19,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-import evaluate  # noqa: E402
-from agents.sb3 import load_hyperparams  # noqa: E402
-from train import CHECKPOINT_PREFIX, checkpoint_steps  # noqa: E402
+from agents import evaluation as evaluate
+from agents.sb3 import load_hyperparams
+from agents.training import CHECKPOINT_PREFIX, checkpoint_steps
 
 TRAIN = [sys.executable, str(ROOT / "train.py"), "--no-progress-bar"]
 

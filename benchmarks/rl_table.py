@@ -24,10 +24,9 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-import evaluate  # noqa: E402
-from agents.sb3 import ALGOS, versions  # noqa: E402
-from sail_env.tasks import TASKS  # noqa: E402
+from agents import evaluation as evaluate
+from agents.sb3 import ALGOS, versions
+from sail_env.tasks import TASKS
 
 #: The classical reference per task: LQG where the observation is delayed and noisy.
 REFERENCE = {"LightSail-v0": "lqr", "LightSailDeepDish-v0": "lqr", "LightSailRealistic-v0": "lqg"}

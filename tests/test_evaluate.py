@@ -5,15 +5,13 @@ from __future__ import annotations
 import csv
 import json
 import math
-import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-import evaluate  # noqa: E402
-import train  # noqa: E402
+from agents import evaluation as evaluate
+from agents import training as train
 
 
 @pytest.fixture(scope="module")

@@ -13,8 +13,7 @@ import pytest
 from stable_baselines3 import PPO
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-import train  # noqa: E402
+from agents import training as train
 
 FAST = ["--n-envs", "2", "--eval-freq", "256", "--eval-episodes", "2", "--save-freq", "256", "--no-progress-bar"]
 

@@ -82,7 +82,6 @@ class LightSailVectorEnv(VectorEnv):
         ``options={"initial_state": {...}}`` starts every environment from that state
         (``LightSailEnv``'s keys), ``{"initial_state": array (N, 4)}`` each from its row.
         """
-        super().reset(seed=seed)
         if seed is None:
             seeds: Sequence[int | None] = [None] * self.num_envs
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
@@ -91,6 +90,7 @@ class LightSailVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"seed must be an int or {self.num_envs} seeds, got {len(seeds)}")
+        super().reset(seed=seeds[0])
         if self._rngs is None or seed is not None:
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
         given = (options or {}).get("initial_state")

@@ -1,0 +1,259 @@
+"""Paired evaluation of agents on a lightsail-gym task: report.json, episodes.csv, report.md, plots.
+
+    python evaluate.py --agent passive --agent lqr --agent runs/LightSail-v0-ppo-0/best_model.zip
+    python evaluate.py --env LightSailRealistic-v0 --agent lqg --agent PATH.zip --episodes 200
+
+``--agent`` is ``passive``, ``lqr``, ``lqg`` or the path of a model saved by ``train.py``
+(loaded with the VecNormalize statistics beside it, acting deterministically).
+Episode ``i`` is ``env.reset(seed=seed + i)`` for every agent, so all agents face the
+same start states, cut-off times and noise draws: the comparison is paired.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import matplotlib
+import numpy as np
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+import sail_env  # noqa: F401, E402  (registers the env ids)
+from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
+from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
+from sail_env.core.spec import EpisodeSpec  # noqa: E402
+from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
+
+BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
+#: Apart from the seeds train.py trains and selects models on.
+DEFAULT_SEED = 100_000
+START_KEYS = ("x", "vx", "theta", "omega")
+
+
+def make_agent(spec: str, env: gym.Env) -> Agent:
+    """A baseline by name, or a trained model by path (:class:`ModelLoadError` if unusable)."""
+    if spec in BASELINES:
+        return BASELINES[spec](env.unwrapped.episode_spec)
+    return SB3Agent.load(spec, env.observation_space.shape)
+
+
+def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False) -> dict[str, Any]:
+    """One seeded episode: start state, outcome, return, and the trajectory if asked for."""
+    obs, info = env.reset(seed=seed)
+    agent.reset()
+    start = info["state"]
+    steps: list[tuple[float, float, float, float, float]] = []
+    total, done = 0.0, False
+    while not done:
+        action = np.asarray(agent.act(obs), dtype=np.float32)
+        obs, reward, terminated, truncated, info = env.step(action)
+        total += reward
+        done = terminated or truncated
+        if trajectory:
+            steps.append((info["t"], info["state"]["x"], info["state"]["theta"], *np.clip(action, -1, 1)))
+    episode = {"seed": seed, **{f"{k}0": start[k] for k in START_KEYS}, "cutoff_s": info["cutoff_s"],
+               "terminal_pointing_rad": info["terminal_pointing_rad"],
+               "success": bool(info["is_success"]), "diverged": bool(info["diverged"]), "return": total}
+    if trajectory:
+        episode["trajectory"] = np.array(steps)
+    return episode
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval for a binomial proportion."""
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    centre = (p + z**2 / (2 * n)) / (1 + z**2 / n)
+    half = z * math.sqrt(p * (1 - p) / n + z**2 / (4 * n**2)) / (1 + z**2 / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def finite_or_none(value: float) -> float | None:
+    """JSON has no inf or NaN: diverged episodes point nowhere (null)."""
+    return float(value) if math.isfinite(value) else None
+
+
+def summarise(episodes: list[dict[str, Any]]) -> dict[str, Any]:
+    """Success rate with its Wilson 95 % interval, pointing quantiles, mean return."""
+    n, wins = len(episodes), sum(e["success"] for e in episodes)
+    pointing = np.array([e["terminal_pointing_rad"] for e in episodes])
+    return {"episodes": n, "success_rate": wins / n, "success_ci95": list(wilson_interval(wins, n)),
+            "terminal_pointing_rad": {"median": finite_or_none(np.median(pointing)),
+                                      "p90": finite_or_none(np.quantile(pointing, 0.9, method="lower")),
+                                      "max": finite_or_none(pointing.max())},
+            "diverged": sum(e["diverged"] for e in episodes),
+            "mean_return": float(np.mean([e["return"] for e in episodes]))}
+
+
+# ---------------------------------------------------------------------- plots
+def plot_pointing(results: dict[str, list[dict[str, Any]]], path: Path) -> None:
+    """Empirical CDF of terminal pointing per agent, log axis, 10 nrad line (diverged: never reached)."""
+    fig, ax = plt.subplots(figsize=(6.4, 4))
+    for name, episodes in results.items():
+        values = np.sort([e["terminal_pointing_rad"] for e in episodes])
+        ax.step(values, np.arange(1, len(values) + 1) / len(values), where="post", label=name)
+    ax.axvline(POINTING_TOLERANCE_RAD, color="k", ls="--", lw=1, label="10 nrad")
+    ax.set(xscale="log", xlabel="terminal pointing [rad]", ylabel="fraction of episodes ≤ x", ylim=(0, 1.02))
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path) -> None:
+    """X, θ and both beam actions over the control window, every agent from the same start."""
+    fig, axes = plt.subplots(4, 1, figsize=(6.4, 7.5), sharex=True)
+    labels = ("X [mm]", "θ [mrad]", "beam offset (action 0)", "beam tilt (action 1)")
+    scales = (1e3, 1e3, 1.0, 1.0)
+    for name, steps in trajectories.items():
+        for k, ax in enumerate(axes):
+            ax.plot(steps[:, 0], steps[:, k + 1] * scales[k], lw=1, label=name)
+    for ax, label in zip(axes, labels):
+        ax.set_ylabel(label, fontsize=8)
+    axes[-1].set_xlabel("flight time [s]")
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, bins: int = 8) -> None:
+    """Success rate in bins of the tilt |θ| at the start of control (at least 10 episodes a bin)."""
+    tilts = np.abs([e["theta0"] for e in next(iter(results.values()))]) * 1e3
+    bins = max(1, min(bins, len(tilts) // 10))
+    edges = np.quantile(tilts, np.linspace(0, 1, bins + 1))
+    which = np.clip(np.searchsorted(edges, tilts, side="right") - 1, 0, bins - 1)
+    centres = [tilts[which == b].mean() for b in range(bins)]
+    fig, ax = plt.subplots(figsize=(6.4, 4))
+    for name, episodes in results.items():
+        success = np.array([e["success"] for e in episodes], dtype=float)
+        ax.plot(centres, [success[which == b].mean() for b in range(bins)], "o-", label=name)
+    ax.set(xlabel="|θ| at start of control [mrad] (bins of equal count)", ylabel="success rate", ylim=(-0.02, 1.02))
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------- report
+def write_report(out: Path, env_id: str, config: dict[str, Any], results: dict[str, list[dict[str, Any]]],
+                 trajectories: dict[str, np.ndarray]) -> dict[str, Any]:
+    """report.json, episodes.csv, the plots and report.md in ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {name: summarise(episodes) for name, episodes in results.items()}
+    report = {"agents": summary, "env": env_id, "config": config, "versions": versions()}
+    (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False))
+
+    columns = ["agent", "episode", "seed", *(f"{k}0" for k in START_KEYS), "cutoff_s",
+               "terminal_pointing_rad", "success", "diverged", "return"]
+    with (out / "episodes.csv").open("w", newline="") as file:
+        writer = csv.DictWriter(file, columns, extrasaction="ignore")
+        writer.writeheader()
+        for name, episodes in results.items():
+            for i, episode in enumerate(episodes):
+                writer.writerow({"agent": name, "episode": i, **episode})
+
+    plot_pointing(results, out / "pointing.png")
+    plot_trajectories(trajectories, out / "trajectories.png")
+    plot_success_vs_tilt(results, out / "success_vs_tilt.png")
+    (out / "report.md").write_text(markdown(env_id, config, summary))
+    return report
+
+
+def fmt(value: float | None) -> str:
+    return "diverged" if value is None else f"{value:.2e}"
+
+
+def markdown(env_id: str, config: dict[str, Any], summary: dict[str, dict[str, Any]]) -> str:
+    """The results table and the plots."""
+    lines = [f"# {env_id}: {config['episodes']} paired episodes (seeds {config['seed']}…"
+             f"{config['seed'] + config['episodes'] - 1})", "",
+             "| agent | success (≤ 10 nrad) | 95 % CI | median pointing [rad] | p90 | max | diverged | mean return |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, s in summary.items():
+        p, (lo, hi) = s["terminal_pointing_rad"], s["success_ci95"]
+        lines.append(f"| {name} | {s['success_rate']:.1%} | {lo:.1%}–{hi:.1%} | {fmt(p['median'])} | "
+                     f"{fmt(p['p90'])} | {fmt(p['max'])} | {s['diverged']} | {s['mean_return']:.2f} |")
+    lines += ["", "![terminal pointing](pointing.png)", "",
+              "![trajectories from the start of episode 0](trajectories.png)", "",
+              "![success rate against initial tilt](success_vs_tilt.png)", ""]
+    return "\n".join(lines)
+
+
+def run_batch(env_id: str, agent: Agent, episodes: int, seed: int) -> list[dict[str, Any]]:
+    """Episodes ``seed + i`` all at once on the vector env (the same episodes as :func:`run_episode`'s)."""
+    envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point")
+    obs, _ = envs.reset(seed=seed)
+    agent.reset()
+    start = envs.unwrapped.core.x.copy()
+    running = np.ones(episodes, dtype=bool)
+    returns, scores = np.zeros(episodes), {}
+    while running.any():
+        obs, reward, terminated, _, info = envs.step(np.asarray(agent.act(obs), dtype=np.float32))
+        returns += np.where(running, reward, 0.0)
+        ended = terminated & running
+        if ended.any():
+            final = info["final_info"]
+            for key in ("cutoff_s", "terminal_pointing_rad", "is_success", "diverged"):
+                scores.setdefault(key, np.zeros(episodes))[ended] = final[key][ended]
+        running &= ~terminated
+    envs.close()
+    return [{"seed": seed + i, **{f"{k}0": float(start[i, j]) for j, k in enumerate(START_KEYS)},
+             "cutoff_s": float(scores["cutoff_s"][i]), "terminal_pointing_rad": float(scores["terminal_pointing_rad"][i]),
+             "success": bool(scores["is_success"][i]), "diverged": bool(scores["diverged"][i]),
+             "return": float(returns[i])} for i in range(episodes)]
+
+
+def evaluate(env_id: str, specs: list[str], episodes: int, seed: int) -> tuple[dict, dict]:
+    """Every agent on episodes ``seed … seed + episodes − 1``; per-episode results, and the
+    trajectory of episode ``seed`` from a single env."""
+    env = gym.make(env_id)
+    agents = [make_agent(spec, env) for spec in specs]
+    names = [agent.name for agent in agents]
+    if len(set(names)) != len(names):
+        raise ValueError(f"agent names must be distinct, got {names}")
+    results, trajectories = {}, {}
+    for agent in agents:
+        results[agent.name] = run_batch(env_id, agent, episodes, seed)
+        trajectories[agent.name] = run_episode(env, agent, seed, trajectory=True)["trajectory"]
+    env.close()
+    return results, trajectories
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--env", default="LightSail-v0")
+    parser.add_argument("--agent", action="append", required=True,
+                        help=f"one of {sorted(BASELINES)} or a model .zip; repeat to compare")
+    parser.add_argument("--episodes", type=int, default=200)
+    parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses reset(seed=seed + i)")
+    parser.add_argument("--out", type=Path, help="report directory (default reports/<env>)")
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        parser.error("--episodes must be >= 1")
+    one_thread_per_process()
+    try:
+        results, trajectories = evaluate(args.env, args.agent, args.episodes, args.seed)
+    except (ModelLoadError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    out = args.out or Path("reports") / args.env
+    config = {"episodes": args.episodes, "seed": args.seed, "agents": args.agent,
+              "env_kwargs": {k: repr(v) for k, v in gym.spec(args.env).kwargs.items()}}
+    report = write_report(out, args.env, config, results, trajectories)
+    for name, s in report["agents"].items():
+        lo, hi = s["success_ci95"]
+        print(f"{name:>32}: success {s['success_rate']:.1%} [{lo:.1%}, {hi:.1%}], "
+              f"median pointing {fmt(s['terminal_pointing_rad']['median'])} rad, mean return {s['mean_return']:.2f}")
+    print(f"report: {out / 'report.md'}")
+    return 0
