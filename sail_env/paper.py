@@ -90,7 +90,7 @@ def _start(x0: float, theta0: float) -> np.ndarray:
 
 
 def relativity(quick: bool) -> tuple[dict, Figure]:
-    """Seed Fig 4: β(t) at 50 GW for several masses under the three laws (PHYSICS.md §5)."""
+    """Seed Fig 4: β(t) at 50 GW for several masses under the three laws (docs/physics.md §5)."""
     times_to = [{f"t_0.2c_{law}_s": time_to_beta(TARGET_BETA, LASER_POWER_W, m, law) for law in LAWS}
                 for m in FIGURE4_MASSES_KG]
     times = np.linspace(0.0, 1.2 * max(times_to[-1].values()), 80 if quick else 400)
@@ -214,7 +214,7 @@ def stability(quick: bool) -> tuple[dict, Figure]:
 
 
 def tolerance(quick: bool) -> tuple[dict, Figure]:
-    """Passive seed sail: terminal pointing |Vx|/Vz at cut-off against initial (X0, θ0) (PHYSICS.md §2).
+    """Passive seed sail: terminal pointing |Vx|/Vz at cut-off against initial (X0, θ0) (docs/physics.md §2).
 
     The sail succeeds if the pointing is within ``POINTING_TOLERANCE_RAD`` (seed eq 20),
     either at exactly ``t_cut`` or, phase-free, for the envelope over the cut-off phase.

@@ -10,7 +10,7 @@ from sail_env.physics import SEED, SailConfig
 
 def seed_rhs(config: SailConfig, state: np.ndarray, beam: np.ndarray = np.zeros(2)) -> np.ndarray:
     """Seed eqs 16-19 as in its appendix code, with the beam offset d and tilt ψ entering
-    as PHYSICS.md §3 says: ``X → X − d``, ``θ → θ − ψ`` inside the curvature terms."""
+    as docs/physics.md §3 says: ``X → X − d``, ``θ → θ − ψ`` inside the curvature terms."""
     x, vx, theta, omega = state
     d, psi = beam
     f, m, lc = config.push_force_n, config.total_mass_kg, config.com_distance_m

@@ -121,7 +121,7 @@ def tolerable_jitter_psd(model: PlanarModel, duration: float, tolerance_rad: flo
                          cutoff_s: float, probability: float = 0.95) -> float:
     """Largest beam-jitter PSD [m² s] that keeps ``|V⊥|/Vz ≤ tolerance_rad`` at cut-off
     with the given probability, for a sail that is perfectly on the beam ``duration``
-    seconds before cut-off and then left to the jitter (PHYSICS.md §3).
+    seconds before cut-off and then left to the jitter (docs/physics.md §3).
 
     The velocity variance is linear in the PSD, so one unit-PSD propagation suffices.
     """

@@ -14,7 +14,7 @@ def _passive_seed(state0):
 
 
 def test_passive_seed_sail_pointing_at_cutoff():
-    """PHYSICS.md §2: from θ0 = 1e-3 rad the passive seed sail ends at ≈ 8.5e-9 rad at 600 s."""
+    """docs/physics.md §2: from θ0 = 1e-3 rad the passive seed sail ends at ≈ 8.5e-9 rad at 600 s."""
     model, final = _passive_seed([1e-5, 0, 1e-3, 0])
     vz = model.equilibrium_speed(600.0)
     assert vz == pytest.approx(6e7)
@@ -30,7 +30,7 @@ def test_envelope_is_the_phase_free_amplitude():
     estimator = EnvelopeEstimator(model)
     envelope = estimator.peak_speed(final, np.zeros(2)) / model.equilibrium_speed(600.0)
     omega, x_eq = math.sqrt(500.0 * 10), 1e-2
-    expected = omega * abs(1e-5 - x_eq) / 6e7  # PHYSICS.md §2: ≈ 1.2e-8
+    expected = omega * abs(1e-5 - x_eq) / 6e7  # docs/physics.md §2: ≈ 1.2e-8
     assert envelope == pytest.approx(expected, rel=1 - math.cos(math.pi / 32))
     assert envelope == pytest.approx(1.18e-8, rel=0.01)
     assert pointing_error(model, final, 600.0) <= envelope * (1 + 1e-9)

@@ -68,7 +68,7 @@ def test_seed_mission_numbers():
     assert thermal_acceleration_limit(1.0, 1.0, 1.0 / fom, 1000.0, 5e-5) == pytest.approx(1e5)
     # The seed's aluminium (ε 0.06, η 0.82, α 0.135, 600 K): 1.32 m/s² at 10 nm (2.71e-5 kg/m²).
     assert thermal_acceleration_limit(0.06, 0.82, 0.135, 600.0, 2.71e-5) == pytest.approx(1.32, rel=0.01)
-    # Distance at cut-off 1.8e7 km (the seed §3.4 says ~1e7 km); round trip ≈ 2 min (PHYSICS.md §3).
+    # Distance at cut-off 1.8e7 km (the seed §3.4 says ~1e7 km); round trip ≈ 2 min (docs/physics.md §3).
     assert distance_flown_m(1e5, 600.0) == pytest.approx(1.8e10)
     assert 2 * one_way_light_delay_s(1e5, 600.0) == pytest.approx(120.0, rel=0.01)
     with pytest.raises(ValueError, match="absorptance"):
