@@ -137,7 +137,7 @@ def algo_of(model_path: str | Path) -> str:
 
 def one_thread_per_process() -> None:
     """Run torch and BLAS on one thread: the env's matrices are tiny, and BLAS threads spinning
-    against a second job on a 2-core machine halved the env's steps/s (benchmarks/throughput.py)."""
+    against a second job on a 2-core machine halved the env's steps/s (measured with the former benchmarks/throughput.py)."""
     torch.set_num_threads(1)
     threadpool_limits(1)
 

@@ -22,7 +22,6 @@ import time
 from pathlib import Path
 
 import gymnasium as gym
-import numpy as np
 from gymnasium.envs.classic_control.cartpole import CartPoleVectorEnv
 
 import sail_env  # noqa: F401

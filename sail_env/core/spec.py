@@ -131,6 +131,13 @@ class EpisodeSpec:
                 f"control with the commands in flight, control_start_s + (steps + delay) * dt = "
                 f"{last_arrival:.6g} s")
 
+    @classmethod
+    def from_env_kwargs(cls, config: SailConfig | str, max_beam_offset_m: float, max_beam_tilt_rad: float,
+                        start_half_widths: Sequence[float], **disturbances) -> EpisodeSpec:
+        """The spec of an env's keyword arguments (the disturbances by :class:`Disturbances`' field names)."""
+        return cls(config, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
+                   start_half_widths=start_half_widths, disturbances=Disturbances(**disturbances))
+
     @property
     def observation_size(self) -> int:
         return 5 + 2 * self.history_length

@@ -10,7 +10,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
-from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, Disturbances, EpisodeSpec
+from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
 from sail_env.envs.rendering import SailRenderer
 from sail_env.physics.config import SailConfig
 from sail_env.physics.planar import STATE_NAMES
@@ -139,11 +139,10 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
-        disturbances = Disturbances(sensor_noise_std, beam_jitter_m, push_noise, cutoff_jitter_s,
-                                    light_delay, parameter_spread)
-        self.episode_spec = spec = EpisodeSpec(config, max_beam_offset_m=max_beam_offset_m,
-                                               max_beam_tilt_rad=max_beam_tilt_rad,
-                                               start_half_widths=start_half_widths, disturbances=disturbances)
+        self.episode_spec = spec = EpisodeSpec.from_env_kwargs(
+            config, max_beam_offset_m, max_beam_tilt_rad, start_half_widths, sensor_noise_std=sensor_noise_std,
+            beam_jitter_m=beam_jitter_m, push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
+            light_delay=light_delay, parameter_spread=parameter_spread)
         self.render_mode = render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (spec.observation_size,),

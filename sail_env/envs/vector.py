@@ -27,7 +27,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
-from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, Disturbances, EpisodeSpec
+from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
 from sail_env.envs.planar import initial_state
 from sail_env.physics.config import SailConfig
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
@@ -58,11 +58,10 @@ class LightSailVectorEnv(VectorEnv):
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if render_mode is not None:
             raise ValueError(f"LightSailVectorEnv does not render; render_mode must be None, got {render_mode!r}")
-        disturbances = Disturbances(sensor_noise_std, beam_jitter_m, push_noise, cutoff_jitter_s,
-                                    light_delay, parameter_spread)
-        self.episode_spec = spec = EpisodeSpec(config, max_beam_offset_m=max_beam_offset_m,
-                                               max_beam_tilt_rad=max_beam_tilt_rad,
-                                               start_half_widths=start_half_widths, disturbances=disturbances)
+        self.episode_spec = spec = EpisodeSpec.from_env_kwargs(
+            config, max_beam_offset_m, max_beam_tilt_rad, start_half_widths, sensor_noise_std=sensor_noise_std,
+            beam_jitter_m=beam_jitter_m, push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
+            light_delay=light_delay, parameter_spread=parameter_spread)
         self.num_envs = int(num_envs)
         self.render_mode = None
         self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
