@@ -78,7 +78,8 @@ class EpisodeCore:
             self.commands = np.zeros((n, max(spec.history_length, spec.max_delay + 1) + 1, 2))
             self.states = np.zeros((n, spec.max_delay + 2, 4))
         # Standard normals of the window, drawn at reset: jitter and push per step, sensor per observation.
-        self.noise_steps = spec.n_steps + spec.max_delay + 2
+        # Steps run from lag0 before control to the last command's arrival: at most n + 2 max_delay.
+        self.noise_steps = spec.n_steps + 2 * spec.max_delay + 2
         self.jitter = np.zeros((n, self.noise_steps)) if dist.beam_jitter_m else None
         self.push = np.zeros((n, self.noise_steps)) if dist.push_noise else None
         self.sensor = np.zeros((n, spec.n_steps + 1, 4)) if dist.any_sensor_noise else None

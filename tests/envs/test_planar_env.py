@@ -194,3 +194,12 @@ def test_random_configurations_never_produce_nan(r, lc, mass, seed):
     assert np.all(np.isfinite(obs)) and np.all(np.isfinite(rewards))
     final = infos[-1]
     assert final["diverged"] or np.isfinite(final["terminal_pointing_rad"])
+
+
+def test_long_light_delay_with_noise_runs_to_the_cutoff():
+    # Control from 25 s: ~20 steps each way, so the commands in flight outlast the window by 20 steps.
+    config = SEED.replace(curvature_radius_m=4.0, control_start_s=25.0)
+    env = gym.make("LightSail-v0", config=config, light_delay=True, beam_jitter_m=1e-6, push_noise=1e-3)
+    assert env.unwrapped.episode_spec.delay_steps(0) >= 20
+    _, rewards, infos = _run(env, seed=0)
+    assert len(rewards) == SEED.control_steps and np.isfinite(infos[-1]["terminal_pointing_rad"])
