@@ -69,14 +69,71 @@ def test_ctrl_c_or_sigterm_saves_a_checkpoint_that_resume_continues(tmp_path: Pa
     assert PPO.load(out / "final_model.zip").num_timesteps >= interrupted_at + 256
 
 
+def exit_code(argv: list[str]) -> int:
+    """train.main's exit code, whether it returns it or argparse exits with it."""
+    try:
+        return train.main(argv)
+    except SystemExit as stop:
+        return int(stop.code)
+
+
 @pytest.mark.parametrize("argv, message", [
-    (["--algo", "ppo", "--env", "CartPole-v1"], "no entry for 'CartPole-v1'"),
+    (["--algo", "ppo", "--env", "CartPole-v1"], "invalid choice: 'CartPole-v1'"),
     (["--resume", "/nonexistent/run"], "run.json"),
+    (["--algo", "ppo", "--timesteps", "0"], "--timesteps: must be >= 1"),
+    (["--algo", "ppo", "--eval-episodes", "0"], "--eval-episodes: must be >= 1"),
+    (["--algo", "ppo", "--seed", "-1"], "--seed: must be >= 0"),
+    (["--algo", "ppo", "--n-envs", "two"], "--n-envs"),
 ])
-def test_bad_configuration_is_a_one_line_error(argv: list[str], message: str, capsys: pytest.CaptureFixture) -> None:
-    assert train.main(argv) == 2
+def test_bad_arguments_are_a_one_line_error(argv: list[str], message: str, capsys: pytest.CaptureFixture,
+                                            tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert exit_code(argv) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize("entry, message", [
+    ("  policy: MlpPolicy\n", "n_timesteps is missing"),
+    ("  n_timesteps: 0\n", "n_timesteps must be a whole number >= 1"),
+    ("  n_timesteps: 100\n  learning_rat: 0.1\n", "ppo has no hyperparameter learning_rat"),
+    ("  n_timesteps: 100\n  policy_kwargs: \"dict(net_arch=[8], activation_fn=nn.Nope)\"\n", "Nope"),
+    ("  n_timesteps: 100\n  noise_type: pink\n", "noise_type"),
+])
+def test_a_bad_hyperparameter_entry_is_a_one_line_error_and_writes_nothing(
+        entry: str, message: str, tmp_path: Path, capsys: pytest.CaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.yml").write_text("LightSail-v0:\n" + entry)
+    assert train.main(["--algo", "ppo", "--config", "bad.yml", "--no-progress-bar"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "bad.yml [LightSail-v0]" in err and "\n" not in err
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a_new_run_never_writes_into_an_old_one(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = ["--algo", "ppo", "--timesteps", "256", *FAST]
+    assert train.main(argv) == 0 and train.main(argv) == 0
+    first, second = tmp_path / "runs/LightSail-v0-ppo-0", tmp_path / "runs/LightSail-v0-ppo-0_2"
+    assert [len(json.loads((d / "run.json").read_text())["sessions"]) for d in (first, second)] == [1, 1]
+    assert (tmp_path / "runs/latest").resolve() == second.resolve()
+    out = capsys.readouterr().out
+    assert out.startswith("training ppo on LightSail-v0, seed 0, 256 steps (whole rollouts: 512)")
+    assert train.main([*argv, "--out", str(first)]) == 2
+    assert "holds a run already" in capsys.readouterr().err
+    # A finished run resumes only to a larger budget.
+    assert train.main(["--resume", str(first), "--no-progress-bar"]) == 2
+    assert "has trained its 512 steps" in capsys.readouterr().err
+
+
+def test_save_freq_zero_checkpoints_only_at_the_end(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    argv = ["--algo", "ppo", "--timesteps", "512", "--out", str(out), *FAST, "--save-freq", "0"]
+    assert train.main(argv) == 0
+    assert sorted(p.name for p in (out / "checkpoints").glob("*.zip")) == ["rl_model_512_steps.zip"]
 
 
 @pytest.mark.parametrize("algo", sorted(train.ALGOS))
@@ -92,6 +149,12 @@ def test_shipped_hyperparameters_build_a_model(algo: str, env_id: str) -> None:
 
 def test_resume_without_a_checkpoint_is_a_one_line_error(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     (tmp_path / "run.json").write_text(json.dumps({"config": {"hyperparams": {}}}))
+    assert train.main(["--resume", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "not a run configuration (lacks algo" in err and "\n" not in err
+    config = {"algo": "ppo", "env": "LightSail-v0", "seed": 0, "vec_env": "batched", "eval_freq": 0,
+              "eval_episodes": 1, "save_freq": 0, "hyperparams_file": "x.yml", "hyperparams": {"n_timesteps": 10}}
+    (tmp_path / "run.json").write_text(json.dumps({"config": config}))
     assert train.main(["--resume", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert "no checkpoint to resume from" in err and "\n" not in err
