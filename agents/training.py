@@ -53,6 +53,7 @@ EVAL_SEED_OFFSET = 10_000
 #: Evaluation episodes run this many at a time (the episodes are the same for any number).
 EVAL_ENVS = 10
 RUNS_ROOT = Path("runs")
+DEFAULT_SAVE_FREQ = 50_000
 PPO_DEFAULT_N_STEPS = inspect.signature(ALGOS["ppo"]).parameters["n_steps"].default
 #: Called after each evaluation with (timesteps, success rate); may raise to stop training
 #: (the hyperparameter search prunes this way).
@@ -95,7 +96,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its newest checkpoint")
     parser.add_argument("--eval-freq", type=int, default=10_000, help="evaluate every N steps (<= 0: never)")
     parser.add_argument("--eval-episodes", type=positive_int, default=100)
-    parser.add_argument("--save-freq", type=int, default=50_000, help="checkpoint every N steps (<= 0: only at the end)")
+    parser.add_argument("--save-freq", type=int, default=DEFAULT_SAVE_FREQ, help="checkpoint every N steps (<= 0: only at the end)")
     parser.add_argument("--no-progress-bar", action="store_true")
     args = parser.parse_args(argv)
     if args.seed < 0:
@@ -249,6 +250,11 @@ class KeepBestBySuccess(BaseCallback):
         return True
 
 
+def read_run(run_dir: Path) -> dict[str, Any]:
+    """A run's ``run.json``."""
+    return json.loads((run_dir / "run.json").read_text())
+
+
 def write_run_json(run_dir: Path, config: dict[str, Any], sessions: list[dict[str, Any]]) -> None:
     """Configuration, versions, and one entry per session (command, status, steps, wall time)."""
     record = {"command": sessions[0]["command"], "config": config, "versions": versions(), "sessions": sessions}
@@ -313,7 +319,7 @@ def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = Fa
                 log_path=str(run_dir), best_model_save_path=None, deterministic=True, verbose=0,
                 callback_after_eval=KeepBestBySuccess(run_dir, seed + EVAL_SEED_OFFSET, on_evaluation)))
 
-        sessions = json.loads((run_dir / "run.json").read_text())["sessions"] if resume_from else []
+        sessions = read_run(run_dir)["sessions"] if resume_from else []
         session = {"command": command, "status": "running", "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                    "start_timesteps": model.num_timesteps}
         sessions.append(session)

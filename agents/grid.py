@@ -1,0 +1,423 @@
+"""The benchmark grid as shared work: every (agent, task, hyperparameters, seed) cell is one
+Optuna trial in a relational database, taken by whichever worker asks next.
+
+    python -m agents.grid run                 # a worker: takes cells until none is left
+    python -m agents.grid status              # done, running (where), failed, what remains
+    python -m agents.grid render --readme README.md   # the README's table from the database
+
+The default storage is a SQLite file, ``runs/grid.db``: nothing to set up. With
+``--storage postgresql://user:password@host/db`` the same commands run one grid from any
+number of machines (start ``run`` on each). Why Optuna's storage rather than SQLAlchemy
+directly: its trial queue (``enqueue_trial`` / ``ask``) hands each waiting trial to exactly
+one worker, its heartbeats find the cells of workers that died, and its tools (the
+dashboard, ``optuna.load_study``) read the results with no code of ours.
+
+A cell's files live in ``--runs-dir`` (``runs/grid/<study>/<cell>``). A cell whose worker
+stops (Ctrl-C, SIGTERM) is put back at once; one whose worker dies stops beating and is put
+back after ``--grace`` seconds. Either way the next worker resumes it from its newest
+checkpoint if it sees the same ``--runs-dir`` (a shared file system across machines), and
+starts it again otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import socket
+import sys
+import threading
+import time
+import warnings
+from collections import defaultdict
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import optuna
+from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback, fail_stale_trials
+from optuna.trial import FrozenTrial, TrialState
+from sqlalchemy.exc import OperationalError
+
+from agents import evaluation, training
+from agents.sb3 import ALGOS, load_hyperparams, versions
+from sail_env.tasks import TASKS
+
+DEFAULT_STORAGE = "sqlite:///runs/grid.db"
+DEFAULT_STUDY = "planar"
+AGENTS = ("passive", "lqr", "lqg", *sorted(ALGOS))
+#: ``tuned``: the shipped YAML; ``default``: what a user tries first, the library's own
+#: defaults (no normalisation, one env, ``log_std_init = 0``) on the same budget.
+HYPERPARAMETERS = ("tuned", "default")
+EPISODES = 200
+SEEDS = (0, 1, 2)
+#: A cell that fails this many times is left failed.
+MAX_RETRY = 3
+CELL_PARAMS = ("env", "agent", "hyperparameters", "seed")
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One unit of work. Classical agents have no training: one cell per task, seed 0."""
+
+    env: str
+    agent: str
+    hyperparameters: str
+    seed: int
+
+    @property
+    def name(self) -> str:
+        return f"{self.env}-{self.agent}-{self.hyperparameters}-{self.seed}"
+
+    @property
+    def trained(self) -> bool:
+        return self.agent in ALGOS
+
+
+def grid_cells(envs: tuple[str, ...], seeds: tuple[int, ...], default_seeds: tuple[int, ...]) -> list[Cell]:
+    """Classical cells first, then learners by expected cost (cheap tasks, PPO first)."""
+    cells = [Cell(env, agent, "none", 0) for env in envs for agent in ("passive", "lqr", "lqg")]
+    for hyperparameters, cell_seeds in (("tuned", seeds), ("default", default_seeds)):
+        cells += [Cell(env, algo, hyperparameters, seed) for env in envs for algo in sorted(ALGOS) for seed in cell_seeds]
+    return cells
+
+
+def cell_config(cell: Cell, eval_freq: int, eval_episodes: int, timesteps: int | None) -> dict[str, Any]:
+    """train.py's configuration of a learner cell."""
+    hp = load_hyperparams(cell.agent, cell.env)
+    if cell.hyperparameters == "default":
+        hp = {"n_timesteps": hp["n_timesteps"], "policy": hp.get("policy", "MlpPolicy")}
+    if timesteps is not None:
+        hp["n_timesteps"] = timesteps
+    return {"algo": cell.agent, "env": cell.env, "seed": cell.seed, "vec_env": "batched", "eval_freq": eval_freq,
+            "eval_episodes": eval_episodes, "save_freq": training.DEFAULT_SAVE_FREQ,
+            "hyperparams_file": f"agents/hyperparams/{cell.agent}.yml" if cell.hyperparameters == "tuned"
+            else "(library defaults)", "hyperparams": hp}
+
+
+# ---------------------------------------------------------------------- storage
+def storage_url(url: str) -> str:
+    """``postgresql://`` means the psycopg (3) driver, the one this package installs."""
+    return "postgresql+psycopg://" + url.removeprefix("postgresql://") if url.startswith("postgresql://") else url
+
+
+def open_storage(url: str, heartbeat: int, grace: int) -> RDBStorage:
+    """The grid's database; SQLite waits for its lock instead of failing at once."""
+    url = storage_url(url)
+    if url.startswith("sqlite:///"):
+        Path(url.removeprefix("sqlite:///")).parent.mkdir(parents=True, exist_ok=True)
+    engine = {"connect_args": {"timeout": 60}} if url.startswith("sqlite") else {"pool_pre_ping": True}
+    return RDBStorage(url, engine_kwargs=engine, heartbeat_interval=heartbeat, grace_period=grace,
+                      heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=MAX_RETRY))
+
+
+def create_grid(storage: RDBStorage, study_name: str, cells: list[Cell], settings: dict[str, Any]) -> optuna.Study:
+    """The grid's study. Only the worker that creates it enqueues the cells, so two workers
+    starting at once never enqueue a cell twice; the others wait until the grid is complete."""
+    try:
+        study = optuna.create_study(storage=storage, study_name=study_name, direction="maximize")
+    except optuna.exceptions.DuplicatedStudyError:
+        study = optuna.load_study(storage=storage, study_name=study_name)
+        deadline = time.monotonic() + 120
+        while "settings" not in study.user_attrs:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"study {study_name!r} exists but holds no grid (not made by agents.grid?)")
+            time.sleep(1)
+        if study.user_attrs["settings"] != settings:
+            raise ValueError(f"study {study_name!r} was made with {study.user_attrs['settings']}, "
+                             f"not {settings}: use another --study")
+        return study
+    for cell in cells:
+        study.enqueue_trial({"env": cell.env, "agent": cell.agent, "hyperparameters": cell.hyperparameters,
+                             "seed": cell.seed}, user_attrs={"cell": cell.name})
+    study.set_user_attr("settings", settings)
+    return study
+
+
+def suggest_cell(trial: optuna.Trial, settings: dict[str, Any]) -> Cell:
+    """The cell a queued trial stands for (its params are fixed when enqueued)."""
+    return Cell(trial.suggest_categorical("env", settings["envs"]), trial.suggest_categorical("agent", AGENTS),
+                trial.suggest_categorical("hyperparameters", ["none", *HYPERPARAMETERS]),
+                trial.suggest_int("seed", 0, max(settings["seeds"] + settings["default_seeds"] + [0])))
+
+
+def claim(storage: RDBStorage, study: optuna.Study) -> optuna.Trial | None:
+    """The next waiting cell, now ours; None if no cell is waiting."""
+    while True:
+        try:
+            fail_stale_trials(study)  # dead workers' cells go back to the queue
+            if not study.get_trials(deepcopy=False, states=(TrialState.WAITING,)):
+                return None
+            trial = study.ask()
+        except OperationalError:  # SQLite: another worker holds the lock
+            time.sleep(0.5)
+            continue
+        if "fixed_params" in storage.get_trial(trial._trial_id).system_attrs:
+            return trial
+        # Another worker took the last waiting cell between our look and our ask: ask() made
+        # a fresh trial that stands for no cell. Mark it so and look again.
+        trial.set_user_attr("cell", None)
+        study.tell(trial, state=TrialState.PRUNED)
+
+
+@contextmanager
+def beating(storage: RDBStorage, trial: optuna.Trial) -> Iterator[None]:
+    """Record the trial's heartbeat every interval while the block runs."""
+    stop = threading.Event()
+
+    def beat() -> None:
+        while not stop.wait(storage.get_heartbeat_interval()):
+            storage.record_heartbeat(trial._trial_id)
+
+    storage.record_heartbeat(trial._trial_id)
+    thread = threading.Thread(target=beat, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+
+
+# ---------------------------------------------------------------------- one cell
+def play(cell: Cell, run_dir: Path) -> dict[str, Any]:
+    """The cell's agent on the grid's ``EPISODES`` paired episodes (evaluate.py's default seed)."""
+    if cell.trained:
+        model = run_dir / "best_model.zip"
+        agent_spec = str(model if model.is_file() else run_dir / "final_model.zip")
+    else:
+        agent_spec = cell.agent
+    env = gym.make(cell.env)
+    agent = evaluation.make_agent(agent_spec, env)
+    env.close()
+    episodes = evaluation.run_batch(cell.env, agent, EPISODES, evaluation.DEFAULT_SEED)
+    return evaluation.summarise(episodes)
+
+
+def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str, Any]) -> dict[str, Any]:
+    """Train (resuming from the newest checkpoint if there is one), evaluate; the results."""
+    started = time.perf_counter()
+    result: dict[str, Any] = {"versions": versions(), "host": socket.gethostname(), "run_dir": str(run_dir)}
+    if cell.trained:
+        config = cell_config(cell, settings["eval_freq"], settings["eval_episodes"], settings["timesteps"])
+        result["hyperparams"] = config["hyperparams"]
+        resume = (run_dir / "checkpoints").is_dir() and any((run_dir / "checkpoints").glob("*.zip"))
+        done = resume and training.checkpoint_steps(training.latest_checkpoint(run_dir)) >= int(
+            config["hyperparams"]["n_timesteps"])
+        if not done:
+            session = training.train(config, run_dir, f"python -m agents.grid run ({cell.name})", resume=resume,
+                                     on_evaluation=lambda steps, rate: trial.set_user_attr("timesteps", steps))
+            if session["status"] != "finished":
+                raise KeyboardInterrupt(session["status"])
+        record = training.read_run(run_dir)
+        result["timesteps"] = record["sessions"][-1]["timesteps"]
+        result["wall_time_s"] = sum(s.get("wall_time_s", 0.0) for s in record["sessions"])
+    result["summary"] = play(cell, run_dir)
+    result["cell_wall_time_s"] = time.perf_counter() - started
+    return result
+
+
+# ---------------------------------------------------------------------- the worker
+def work(storage: RDBStorage, study: optuna.Study, runs_dir: Path, max_cells: int | None, wait: bool) -> int:
+    """Take cells until none is waiting (and, with ``wait``, none is running elsewhere)."""
+    settings, done = study.user_attrs["settings"], 0
+    while max_cells is None or done < max_cells:
+        trial = claim(storage, study)
+        if trial is None:
+            running = study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
+            if wait and running:  # a running cell may yet come back if its worker dies
+                time.sleep(storage.get_heartbeat_interval())
+                continue
+            break
+        cell = suggest_cell(trial, settings)
+        trial.set_user_attr("host", socket.gethostname())
+        run_dir = runs_dir / study.study_name / cell.name
+        print(f"[{time.strftime('%H:%M:%S')}] {cell.name}: started (trial {trial.number}) -> {run_dir}", flush=True)
+        try:
+            with beating(storage, trial):
+                result = run_cell(cell, trial, run_dir, settings)
+        except KeyboardInterrupt:
+            study.tell(trial, state=TrialState.FAIL)
+            storage.get_heartbeat_stale_trial_callback()(study, study.get_trials(deepcopy=False)[trial.number])
+            print(f"{cell.name}: stopped; put back in the queue (resumes from its checkpoint)", flush=True)
+            return 130
+        except Exception as err:  # noqa: BLE001  (one broken cell must not stop the grid)
+            trial.set_user_attr("error", f"{type(err).__name__}: {err}")
+            study.tell(trial, state=TrialState.FAIL)
+            print(f"{cell.name}: FAILED ({type(err).__name__}: {err})", flush=True)
+            continue
+        for key, value in result.items():
+            trial.set_user_attr(key, value)
+        study.tell(trial, result["summary"]["success_rate"])
+        done += 1
+        summary = result["summary"]
+        print(f"[{time.strftime('%H:%M:%S')}] {cell.name}: success {summary['success_rate']:.1%}, median pointing "
+              f"{evaluation.fmt(summary['terminal_pointing_rad']['median'])} rad", flush=True)
+    return 0
+
+
+# ---------------------------------------------------------------------- status and table
+def cell_of(trial: FrozenTrial) -> Cell:
+    """The cell of a trial, also before its worker has read its parameters."""
+    params = trial.params or trial.system_attrs["fixed_params"]
+    return Cell(*(params[key] for key in CELL_PARAMS))
+
+
+def cell_trials(study: optuna.Study) -> dict[Cell, FrozenTrial]:
+    """The latest trial of each cell (a cell put back in the queue has several)."""
+    return {cell_of(trial): trial for trial in study.get_trials(deepcopy=False) if trial.user_attrs.get("cell")}
+
+
+def status_text(study: optuna.Study) -> str:
+    """Counts by state, the running and failed cells, and an estimate of the time that remains."""
+    trials = cell_trials(study)
+    by_state: dict[str, list[tuple[Cell, FrozenTrial]]] = defaultdict(list)
+    for cell, trial in trials.items():
+        by_state[trial.state.name].append((cell, trial))
+    lines = [f"study {study.study_name}: {len(trials)} cells, "
+             + ", ".join(f"{len(v)} {k.lower()}" for k, v in sorted(by_state.items()))]
+    for cell, trial in by_state.get("RUNNING", []):
+        elapsed = time.time() - trial.datetime_start.timestamp()
+        lines.append(f"  running  {cell.name} on {trial.user_attrs.get('host', '?')} for {elapsed / 60:.0f} min, "
+                     f"{trial.user_attrs.get('timesteps', 0):,} steps at its last evaluation")
+    for cell, trial in by_state.get("FAIL", []):
+        lines.append(f"  failed   {cell.name}: {trial.user_attrs.get('error', 'worker stopped')}")
+    if len(by_state.get("COMPLETE", [])) == len(trials):
+        return "\n".join([*lines, "all cells done: python -m agents.grid render"])
+    remaining = remaining_seconds(study, trials)
+    workers = max(1, len(by_state.get("RUNNING", [])))
+    if remaining is None:
+        lines.append("remaining: no estimate until one cell of each learner has finished")
+    else:
+        lines.append(f"remaining: about {remaining / 3600:.1f} h of one worker's time "
+                     f"({remaining / 3600 / workers:.1f} h with {workers} worker{'s' * (workers > 1)})")
+    return "\n".join(lines)
+
+
+def remaining_seconds(study: optuna.Study, trials: dict[Cell, FrozenTrial]) -> float | None:
+    """Training steps left × seconds per step measured on finished cells of the same learner
+    (and task, when one has finished)."""
+    per_step: dict[tuple[str, str | None], list[float]] = defaultdict(list)
+    for cell, trial in trials.items():
+        if cell.trained and trial.state == TrialState.COMPLETE:
+            rate = trial.user_attrs["wall_time_s"] / trial.user_attrs["timesteps"]
+            per_step[(cell.agent, cell.env)].append(rate)
+            per_step[(cell.agent, None)].append(rate)
+    timesteps, total = study.user_attrs["settings"]["timesteps"], 0.0
+    for cell, trial in trials.items():
+        if not cell.trained or trial.state == TrialState.COMPLETE:
+            continue
+        rates = per_step.get((cell.agent, cell.env)) or per_step.get((cell.agent, None))
+        if not rates:
+            return None
+        steps = timesteps or load_hyperparams(cell.agent, cell.env)["n_timesteps"]
+        total += float(np.median(rates)) * max(steps - trial.user_attrs.get("timesteps", 0), 0)
+    return total
+
+
+def log10(value: float | None) -> float:
+    return math.log10(value) if value else math.inf
+
+
+def table_markdown(study: optuna.Study) -> str:
+    """Per task: each agent's success rate (mean ± std over seeds), median and p90 pointing."""
+    groups: dict[tuple[str, str, str], list[FrozenTrial]] = defaultdict(list)
+    for cell, trial in cell_trials(study).items():
+        if trial.state == TrialState.COMPLETE:
+            groups[(cell.env, cell.agent, cell.hyperparameters)].append(trial)
+    settings = study.user_attrs["settings"]
+    lines = ["| task | agent | hyperparameters | seeds | success (mean ± std) | log10 median pointing | "
+             "log10 p90 pointing | training steps | training time per seed |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|"]
+    for env in settings["envs"]:
+        for agent in AGENTS:
+            for hyperparameters in ("none", *HYPERPARAMETERS):
+                trials = groups.get((env, agent, hyperparameters))
+                if not trials:
+                    continue
+                summaries = [t.user_attrs["summary"] for t in trials]
+                success = np.array([s["success_rate"] for s in summaries])
+                median = np.array([log10(s["terminal_pointing_rad"]["median"]) for s in summaries])
+                p90 = np.array([log10(s["terminal_pointing_rad"]["p90"]) for s in summaries])
+                expected = len(settings["seeds"] if hyperparameters == "tuned" else settings["default_seeds"]) \
+                    if agent in ALGOS else 1
+                spread = f" ± {100 * success.std():.1f}" if len(trials) > 1 else ""
+                steps = f"{int(np.mean([t.user_attrs['timesteps'] for t in trials])):,}" if agent in ALGOS else "–"
+                wall = f"{np.mean([t.user_attrs['wall_time_s'] for t in trials]) / 60:.1f} min" if agent in ALGOS else "–"
+                label = "–" if hyperparameters == "none" else hyperparameters
+                lines.append(f"| {env} | {agent} | {label} | {len(trials)}/{expected} | {100 * success.mean():.1f} %"
+                             f"{spread} | {median.mean():.2f} | {p90.mean():.2f} | {steps} | {wall} |")
+    return "\n".join(lines)
+
+
+README_START, README_END = "<!-- grid-table:start -->", "<!-- grid-table:end -->"
+
+
+def replace_in_readme(readme: Path, table: str) -> None:
+    """Put ``table`` between the README's grid-table markers."""
+    text = readme.read_text()
+    if README_START not in text or README_END not in text:
+        raise ValueError(f"{readme}: no {README_START} … {README_END} markers")
+    head, rest = text.split(README_START, 1)
+    readme.write_text(f"{head}{README_START}\n{table}\n{README_END}{rest.split(README_END, 1)[1]}")
+
+
+# ---------------------------------------------------------------------- command line
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = training.OneLineParser(prog="python -m agents.grid", description=__doc__.splitlines()[0],
+                                    formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("command", choices=("run", "status", "render"))
+    parser.add_argument("--storage", default=DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
+    parser.add_argument("--study", default=DEFAULT_STUDY, help="name of the grid in the storage")
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs/grid"), help="where cells keep their files")
+    parser.add_argument("--envs", nargs="+", default=list(TASKS), choices=list(TASKS), metavar="ID")
+    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
+    parser.add_argument("--default-seeds", nargs="*", type=int, default=[0],
+                        help="seeds of the library-defaults rows")
+    parser.add_argument("--timesteps", type=training.positive_int, help="override every learner's budget (tests)")
+    parser.add_argument("--eval-freq", type=int, default=10_000, help="training-time evaluations (model selection)")
+    parser.add_argument("--eval-episodes", type=training.positive_int, default=100)
+    parser.add_argument("--max-cells", type=training.positive_int, help="stop after this many cells")
+    parser.add_argument("--no-wait", action="store_true", help="exit when no cell is waiting, even if some run elsewhere")
+    parser.add_argument("--heartbeat", type=training.positive_int, default=60, help="seconds between heartbeats")
+    parser.add_argument("--grace", type=training.positive_int, default=300,
+                        help="seconds without a heartbeat after which a cell is taken again")
+    parser.add_argument("--readme", type=Path, help="render: write the table into this README's grid-table markers")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    # Heartbeats outside Study.optimize and fail_stale_trials are marked experimental.
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    warnings.filterwarnings("ignore", message="Heartbeat of storage is supposed to be used with Study.optimize")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    args = parse_args(argv)
+    settings = {"envs": args.envs, "seeds": args.seeds, "default_seeds": args.default_seeds,
+                "timesteps": args.timesteps, "eval_freq": args.eval_freq, "eval_episodes": args.eval_episodes,
+                "episodes": EPISODES}
+    try:
+        storage = open_storage(args.storage, args.heartbeat, args.grace)
+        if args.command == "run":
+            training.stop_on_signals()
+            study = create_grid(storage, args.study, grid_cells(tuple(args.envs), tuple(args.seeds),
+                                                                tuple(args.default_seeds)), settings)
+            return work(storage, study, args.runs_dir, args.max_cells, wait=not args.no_wait)
+        study = optuna.load_study(storage=storage, study_name=args.study)
+    except (ValueError, KeyError, RuntimeError, OperationalError) as err:
+        print(f"python -m agents.grid: error: {err}".splitlines()[0], file=sys.stderr)
+        return 2
+    if args.command == "status":
+        print(status_text(study))
+    else:
+        table = table_markdown(study)
+        if args.readme is not None:
+            replace_in_readme(args.readme, table)
+        print(table)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
