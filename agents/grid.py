@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import socket
 import sys
 import threading
@@ -57,6 +58,8 @@ SEEDS = (0, 1, 2)
 #: A cell that fails this many times is left failed.
 MAX_RETRY = 3
 CELL_PARAMS = ("env", "agent", "hyperparameters", "seed")
+#: Where a cell runs, for ``status``.
+WORKER = f"{socket.gethostname()}:{os.getpid()}"
 
 
 @dataclass(frozen=True)
@@ -77,23 +80,26 @@ class Cell:
         return self.agent in ALGOS
 
 
-def grid_cells(envs: tuple[str, ...], seeds: tuple[int, ...], default_seeds: tuple[int, ...]) -> list[Cell]:
+def grid_cells(settings: dict[str, Any]) -> list[Cell]:
     """Classical cells first, then learners by expected cost (cheap tasks, PPO first)."""
+    envs, algos = settings["envs"], settings["algos"]
     cells = [Cell(env, agent, "none", 0) for env in envs for agent in ("passive", "lqr", "lqg")]
-    for hyperparameters, cell_seeds in (("tuned", seeds), ("default", default_seeds)):
-        cells += [Cell(env, algo, hyperparameters, seed) for env in envs for algo in sorted(ALGOS) for seed in cell_seeds]
+    for hyperparameters in ("tuned", "default"):
+        cells += [Cell(env, algo, hyperparameters, seed) for env in envs for algo in algos
+                  for seed in settings[f"{hyperparameters}_seeds"]]
     return cells
 
 
-def cell_config(cell: Cell, eval_freq: int, eval_episodes: int, timesteps: int | None) -> dict[str, Any]:
+def cell_config(cell: Cell, settings: dict[str, Any]) -> dict[str, Any]:
     """train.py's configuration of a learner cell."""
     hp = load_hyperparams(cell.agent, cell.env)
     if cell.hyperparameters == "default":
         hp = {"n_timesteps": hp["n_timesteps"], "policy": hp.get("policy", "MlpPolicy")}
-    if timesteps is not None:
-        hp["n_timesteps"] = timesteps
-    return {"algo": cell.agent, "env": cell.env, "seed": cell.seed, "vec_env": "batched", "eval_freq": eval_freq,
-            "eval_episodes": eval_episodes, "save_freq": training.DEFAULT_SAVE_FREQ,
+    if settings["timesteps"] is not None:
+        hp["n_timesteps"] = settings["timesteps"]
+    return {"algo": cell.agent, "env": cell.env, "seed": cell.seed, "vec_env": "batched",
+            "eval_freq": settings["eval_freq"], "eval_episodes": settings["eval_episodes"],
+            "save_freq": settings["save_freq"],
             "hyperparams_file": f"agents/hyperparams/{cell.agent}.yml" if cell.hyperparameters == "tuned"
             else "(library defaults)", "hyperparams": hp}
 
@@ -141,7 +147,7 @@ def suggest_cell(trial: optuna.Trial, settings: dict[str, Any]) -> Cell:
     """The cell a queued trial stands for (its params are fixed when enqueued)."""
     return Cell(trial.suggest_categorical("env", settings["envs"]), trial.suggest_categorical("agent", AGENTS),
                 trial.suggest_categorical("hyperparameters", ["none", *HYPERPARAMETERS]),
-                trial.suggest_int("seed", 0, max(settings["seeds"] + settings["default_seeds"] + [0])))
+                trial.suggest_int("seed", 0, max(settings["tuned_seeds"] + settings["default_seeds"] + [0])))
 
 
 def claim(storage: RDBStorage, study: optuna.Study) -> optuna.Trial | None:
@@ -200,9 +206,9 @@ def play(cell: Cell, run_dir: Path) -> dict[str, Any]:
 def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str, Any]) -> dict[str, Any]:
     """Train (resuming from the newest checkpoint if there is one), evaluate; the results."""
     started = time.perf_counter()
-    result: dict[str, Any] = {"versions": versions(), "host": socket.gethostname(), "run_dir": str(run_dir)}
+    result: dict[str, Any] = {"versions": versions(), "run_dir": str(run_dir)}
     if cell.trained:
-        config = cell_config(cell, settings["eval_freq"], settings["eval_episodes"], settings["timesteps"])
+        config = cell_config(cell, settings)
         result["hyperparams"] = config["hyperparams"]
         resume = (run_dir / "checkpoints").is_dir() and any((run_dir / "checkpoints").glob("*.zip"))
         done = resume and training.checkpoint_steps(training.latest_checkpoint(run_dir)) >= int(
@@ -233,7 +239,7 @@ def work(storage: RDBStorage, study: optuna.Study, runs_dir: Path, max_cells: in
                 continue
             break
         cell = suggest_cell(trial, settings)
-        trial.set_user_attr("host", socket.gethostname())
+        trial.set_user_attr("worker", WORKER)
         run_dir = runs_dir / study.study_name / cell.name
         print(f"[{time.strftime('%H:%M:%S')}] {cell.name}: started (trial {trial.number}) -> {run_dir}", flush=True)
         try:
@@ -281,7 +287,7 @@ def status_text(study: optuna.Study) -> str:
              + ", ".join(f"{len(v)} {k.lower()}" for k, v in sorted(by_state.items()))]
     for cell, trial in by_state.get("RUNNING", []):
         elapsed = time.time() - trial.datetime_start.timestamp()
-        lines.append(f"  running  {cell.name} on {trial.user_attrs.get('host', '?')} for {elapsed / 60:.0f} min, "
+        lines.append(f"  running  {cell.name} on {trial.user_attrs.get('worker', '?')} for {elapsed / 60:.0f} min, "
                      f"{trial.user_attrs.get('timesteps', 0):,} steps at its last evaluation")
     for cell, trial in by_state.get("FAIL", []):
         lines.append(f"  failed   {cell.name}: {trial.user_attrs.get('error', 'worker stopped')}")
@@ -342,8 +348,7 @@ def table_markdown(study: optuna.Study) -> str:
                 success = np.array([s["success_rate"] for s in summaries])
                 median = np.array([log10(s["terminal_pointing_rad"]["median"]) for s in summaries])
                 p90 = np.array([log10(s["terminal_pointing_rad"]["p90"]) for s in summaries])
-                expected = len(settings["seeds"] if hyperparameters == "tuned" else settings["default_seeds"]) \
-                    if agent in ALGOS else 1
+                expected = len(settings[f"{hyperparameters}_seeds"]) if agent in ALGOS else 1
                 spread = f" ± {100 * success.std():.1f}" if len(trials) > 1 else ""
                 steps = f"{int(np.mean([t.user_attrs['timesteps'] for t in trials])):,}" if agent in ALGOS else "–"
                 wall = f"{np.mean([t.user_attrs['wall_time_s'] for t in trials]) / 60:.1f} min" if agent in ALGOS else "–"
@@ -374,12 +379,15 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--study", default=DEFAULT_STUDY, help="name of the grid in the storage")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/grid"), help="where cells keep their files")
     parser.add_argument("--envs", nargs="+", default=list(TASKS), choices=list(TASKS), metavar="ID")
-    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
+    parser.add_argument("--algos", nargs="+", default=sorted(ALGOS), choices=sorted(ALGOS))
+    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS), help="seeds of the tuned rows")
     parser.add_argument("--default-seeds", nargs="*", type=int, default=[0],
                         help="seeds of the library-defaults rows")
     parser.add_argument("--timesteps", type=training.positive_int, help="override every learner's budget (tests)")
     parser.add_argument("--eval-freq", type=int, default=10_000, help="training-time evaluations (model selection)")
     parser.add_argument("--eval-episodes", type=training.positive_int, default=100)
+    parser.add_argument("--save-freq", type=training.positive_int, default=training.DEFAULT_SAVE_FREQ,
+                        help="checkpoint every N steps")
     parser.add_argument("--max-cells", type=training.positive_int, help="stop after this many cells")
     parser.add_argument("--no-wait", action="store_true", help="exit when no cell is waiting, even if some run elsewhere")
     parser.add_argument("--heartbeat", type=training.positive_int, default=60, help="seconds between heartbeats")
@@ -395,15 +403,14 @@ def main(argv: list[str] | None = None) -> int:
     warnings.filterwarnings("ignore", message="Heartbeat of storage is supposed to be used with Study.optimize")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     args = parse_args(argv)
-    settings = {"envs": args.envs, "seeds": args.seeds, "default_seeds": args.default_seeds,
+    settings = {"envs": args.envs, "algos": args.algos, "tuned_seeds": args.seeds, "default_seeds": args.default_seeds,
                 "timesteps": args.timesteps, "eval_freq": args.eval_freq, "eval_episodes": args.eval_episodes,
-                "episodes": EPISODES}
+                "save_freq": args.save_freq, "episodes": EPISODES}
     try:
         storage = open_storage(args.storage, args.heartbeat, args.grace)
         if args.command == "run":
             training.stop_on_signals()
-            study = create_grid(storage, args.study, grid_cells(tuple(args.envs), tuple(args.seeds),
-                                                                tuple(args.default_seeds)), settings)
+            study = create_grid(storage, args.study, grid_cells(settings), settings)
             return work(storage, study, args.runs_dir, args.max_cells, wait=not args.no_wait)
         study = optuna.load_study(storage=storage, study_name=args.study)
     except (ValueError, KeyError, RuntimeError, OperationalError) as err:
