@@ -41,7 +41,7 @@ import numpy as np
 import optuna
 from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback, fail_stale_trials
 from optuna.trial import FrozenTrial, TrialState
-from sqlalchemy.exc import OperationalError
+from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
 
 from agents import evaluation, training
 from agents.sb3 import ALGOS, load_hyperparams, versions
@@ -116,8 +116,15 @@ def open_storage(url: str, heartbeat: int, grace: int) -> RDBStorage:
     if url.startswith("sqlite:///"):
         Path(url.removeprefix("sqlite:///")).parent.mkdir(parents=True, exist_ok=True)
     engine = {"connect_args": {"timeout": 60}} if url.startswith("sqlite") else {"pool_pre_ping": True}
-    return RDBStorage(url, engine_kwargs=engine, heartbeat_interval=heartbeat, grace_period=grace,
-                      heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=MAX_RETRY))
+    def connect() -> RDBStorage:
+        return RDBStorage(url, engine_kwargs=engine, heartbeat_interval=heartbeat, grace_period=grace,
+                          heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=MAX_RETRY))
+
+    try:
+        return connect()
+    except (IntegrityError, ProgrammingError):  # two workers created the schema of a new database at once
+        time.sleep(1)
+        return connect()
 
 
 def create_grid(storage: RDBStorage, study_name: str, cells: list[Cell], settings: dict[str, Any]) -> optuna.Study:

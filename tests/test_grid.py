@@ -1,0 +1,155 @@
+"""The benchmark grid end to end at tiny budgets: SQLite with one worker, and two concurrent
+workers on SQLite and on a real PostgreSQL server started on loopback, one of them killed
+mid-cell."""
+
+from __future__ import annotations
+
+import glob
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+
+import optuna
+import pytest
+from optuna.trial import TrialState
+
+from agents import grid
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY = ["--timesteps", "256", "--eval-freq", "128", "--eval-episodes", "2", "--save-freq", "128"]
+
+
+def load(storage: str, study: str = grid.DEFAULT_STUDY) -> optuna.Study:
+    return optuna.load_study(storage=grid.storage_url(storage), study_name=study)
+
+
+def test_sqlite_grid_runs_resumes_and_renders(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                              capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    argv = ["--envs", "LightSail-v0", "--algos", "ppo", "--seeds", "0", "1", "--default-seeds", "0", *TINY]
+    assert grid.main(["run", *argv, "--max-cells", "4"]) == 0  # stop part-way, then resume
+    assert grid.main(["status"]) == 0
+    assert "4 complete, 2 waiting" in capsys.readouterr().out
+    assert grid.main(["run", *argv]) == 0
+    assert grid.main(["run", *argv]) == 0  # nothing left: no cell runs twice
+    study = load(grid.DEFAULT_STORAGE)
+    trials = study.get_trials()
+    assert len(trials) == 6 and all(t.state == TrialState.COMPLETE for t in trials)
+    cells = {t.user_attrs["cell"] for t in trials}
+    assert cells == {"LightSail-v0-passive-none-0", "LightSail-v0-lqr-none-0", "LightSail-v0-lqg-none-0",
+                     "LightSail-v0-ppo-tuned-0", "LightSail-v0-ppo-tuned-1", "LightSail-v0-ppo-default-0"}
+    default = next(t for t in trials if t.user_attrs["cell"] == "LightSail-v0-ppo-default-0")
+    assert default.user_attrs["hyperparams"] == {"n_timesteps": 256, "policy": "MlpPolicy"}
+    for trial in trials:
+        summary = trial.user_attrs["summary"]
+        assert summary["episodes"] == grid.EPISODES and trial.value == summary["success_rate"]
+        assert {"stable-baselines3", "torch", "lightsail-gym"} <= set(trial.user_attrs["versions"])
+
+    readme = tmp_path / "README.md"
+    readme.write_text(f"before\n{grid.README_START}\nold\n{grid.README_END}\nafter\n")
+    capsys.readouterr()
+    assert grid.main(["render", "--readme", str(readme)]) == 0
+    table = capsys.readouterr().out.strip()
+    assert readme.read_text() == f"before\n{grid.README_START}\n{table}\n{grid.README_END}\nafter\n"
+    rows = {tuple(cell.strip() for cell in line.split("|")[2:4]): line for line in table.splitlines()[2:]}
+    tuned = [t for t in trials if t.params["hyperparameters"] == "tuned"]
+    mean = 100 * sum(t.value for t in tuned) / 2
+    assert f"| 2/2 | {mean:.1f} %" in rows[("ppo", "tuned")]
+    lqr = next(t for t in trials if t.params["agent"] == "lqr").user_attrs["summary"]
+    assert f"| 1/1 | {100 * lqr['success_rate']:.1f} % |" in rows[("lqr", "–")]
+
+
+def test_a_grid_made_with_other_settings_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert grid.main(["run", "--envs", "LightSail-v0", "--algos", "ppo", "--seeds", "0", "--default-seeds",
+                      "--max-cells", "1", *TINY]) == 0
+    capsys.readouterr()
+    assert grid.main(["run", "--envs", "LightSail-v0", *TINY]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "use another --study" in err and "\n" not in err
+
+
+# ---------------------------------------------------------------------- two workers
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def postgresql() -> Iterator[str]:
+    """A throw-away PostgreSQL server on loopback (Debian's packages; .ci/run installs them)."""
+    found = shutil.which("initdb") or next(iter(sorted(glob.glob("/usr/lib/postgresql/*/bin/initdb"))), None)
+    if found is None:
+        pytest.skip("PostgreSQL is not installed (apt-get install postgresql): the multi-machine test needs a server")
+    bin_dir = Path(found).resolve().parent
+    data = Path(tempfile.mkdtemp(prefix="grid-postgresql-"))  # pytest's own tmp dirs are closed to other users
+    as_user: list[str] = []
+    if os.geteuid() == 0:  # the server refuses to run as root
+        as_user = ["runuser", "-u", "postgres", "--"]
+        shutil.chown(data, "postgres")
+    port = free_port()
+    subprocess.run([*as_user, str(bin_dir / "initdb"), "-D", str(data / "db"), "-U", "grid", "--auth=trust"],
+                   check=True, capture_output=True)
+    subprocess.run([*as_user, str(bin_dir / "pg_ctl"), "-D", str(data / "db"), "-l", str(data / "log"), "-w", "start",
+                    "-o", f"-c listen_addresses=127.0.0.1 -p {port} -k {data}"], check=True, capture_output=True)
+    try:
+        subprocess.run([*as_user, str(bin_dir / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", "grid", "grid"],
+                       check=True, capture_output=True)
+        yield f"postgresql://grid@127.0.0.1:{port}/grid"
+    finally:
+        subprocess.run([*as_user, str(bin_dir / "pg_ctl"), "-D", str(data / "db"), "-m", "immediate", "stop"],
+                       capture_output=True)
+        shutil.rmtree(data, ignore_errors=True)
+
+
+def start_worker(storage: str, cwd: Path, log: Path, argv: list[str]) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "agents.grid", "run", "--storage", storage, *argv], cwd=cwd,
+                            env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=log.open("w"), stderr=subprocess.STDOUT)
+
+
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+def test_two_workers_run_every_cell_once_and_finish_a_killed_workers_cell(backend: str, tmp_path: Path,
+                                                                          request: pytest.FixtureRequest) -> None:
+    storage = f"sqlite:///{tmp_path}/grid.db" if backend == "sqlite" else request.getfixturevalue("postgresql")
+    study_name = f"two-workers-{backend}-{os.getpid()}"
+    argv = ["--study", study_name, "--runs-dir", str(tmp_path / "runs"), "--envs", "LightSail-v0", "--algos", "ppo",
+            "--seeds", "0", "1", "2", "--default-seeds", "--timesteps", "12288", "--eval-freq", "0", "--save-freq", "2048",
+            "--heartbeat", "1", "--grace", "3"]
+    workers = [start_worker(storage, tmp_path, tmp_path / f"worker{i}.log", argv) for i in range(2)]
+    # Kill whichever worker is first seen in a learner cell that has a checkpoint.
+    deadline, victim = time.monotonic() + 120, None
+    while victim is None and time.monotonic() < deadline:
+        for i, worker in enumerate(workers):
+            started = re.findall(r"(\S+-ppo-tuned-\d): started .* -> (\S+)", (tmp_path / f"worker{i}.log").read_text())
+            if started and list(Path(started[-1][1]).glob("checkpoints/*.zip")):
+                victim, (killed_worker, survivor) = started[-1][0], (workers[i], workers[1 - i])
+                killed_worker.send_signal(signal.SIGKILL)
+                break
+        time.sleep(0.1)
+    assert victim is not None, "no worker reached a learner cell"
+    assert survivor.wait(timeout=300) == 0, [(tmp_path / f"worker{i}.log").read_text() for i in range(2)]
+    killed_worker.wait()
+
+    trials = load(storage, study_name).get_trials()
+    complete = Counter(t.user_attrs["cell"] for t in trials if t.state == TrialState.COMPLETE)
+    assert complete == Counter({"LightSail-v0-passive-none-0": 1, "LightSail-v0-lqr-none-0": 1,
+                                "LightSail-v0-lqg-none-0": 1, "LightSail-v0-ppo-tuned-0": 1,
+                                "LightSail-v0-ppo-tuned-1": 1, "LightSail-v0-ppo-tuned-2": 1})
+    killed = [t for t in trials if t.user_attrs.get("cell") == victim and t.state == TrialState.FAIL]
+    assert len(killed) == 1
+    finisher = next(t for t in trials if t.user_attrs.get("cell") == victim and t.state == TrialState.COMPLETE)
+    assert finisher.user_attrs["worker"].endswith(f":{survivor.pid}")
+    sessions = grid.training.read_run(Path(finisher.user_attrs["run_dir"]))["sessions"]
+    assert sessions[0]["status"] == "running"  # the killed worker's session never ended
+    assert sessions[-1]["start_timesteps"] > 0 and sessions[-1]["timesteps"] >= 12288  # resumed, not restarted
