@@ -231,6 +231,7 @@ class SB3Agent:
         path = Path(path)
         if not path.is_file():
             raise ModelLoadError(f"{path}: model file not found")
+        algo = algo_of(path)
         stats, record = normalizer_path(path), run_record(path)
         if record is not None:
             record_path, config = record
@@ -244,7 +245,6 @@ class SB3Agent:
         elif not stats.is_file() and not raw_observations_ok:
             raise ModelLoadError(f"{stats}: not found, and no run.json beside {path.name} says whether it was trained "
                                  "with VecNormalize (evaluate.py --raw-observations: it was not)")
-        algo = algo_of(path)
         try:
             model = ALGOS[algo].load(path, device="cpu")
         except Exception as err:
