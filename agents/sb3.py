@@ -3,7 +3,8 @@
 A run directory (``train.py --out DIR``) holds, for every saved model ``NAME.zip``, the
 ``VecNormalize`` statistics it was trained with in ``NAME_vecnormalize.pkl``
 (checkpoints follow SB3's own naming, ``rl_model_vecnormalize_<N>_steps.pkl``).
-:meth:`SB3Agent.load` finds them from the model path.
+:meth:`SB3Agent.load` finds them from the model path, and the run's ``run.json`` tells it
+whether the model needs them and which env it was trained on.
 """
 
 from __future__ import annotations
