@@ -4,9 +4,14 @@
     python evaluate.py --env LightSailRealistic-v0 --agent lqg --agent PATH.zip --episodes 200
 
 ``--agent`` is ``passive``, ``lqr``, ``lqg`` or the path of a model saved by ``train.py``
-(loaded with the VecNormalize statistics beside it, acting deterministically).
+(loaded with the VecNormalize statistics beside it, acting deterministically; its run's
+``run.json`` says whether it needs them and which env it was trained on).
 Episode ``i`` is ``env.reset(seed=seed + i)`` for every agent, so all agents face the
 same start states, cut-off times and noise draws: the comparison is paired.
+
+A bad argument, an unusable model or an unwritable ``--out`` is one line on stderr and
+exit code 2, before any episode runs and with nothing written. Model ``.zip`` and
+statistics ``.pkl`` files are unpickled, which runs code: load only files you trust.
 """
 
 from __future__ import annotations
@@ -16,38 +21,55 @@ import csv
 import json
 import math
 import sys
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import matplotlib
 import numpy as np
+from tqdm import tqdm
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
+from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, fail  # noqa: E402
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
 from sail_env.core.spec import EpisodeSpec  # noqa: E402
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
+from sail_env.tasks import TASKS  # noqa: E402
 
 BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
 #: Apart from the seeds train.py trains and selects models on.
 DEFAULT_SEED = 100_000
 START_KEYS = ("x", "vx", "theta", "omega")
+#: Episodes stepped as one batch: the progress bar moves once a batch; memory stays bounded.
+BATCH_EPISODES = 50
 
 
-def make_agent(spec: str, env: gym.Env) -> Agent:
-    """A baseline by name, or a trained model by path (:class:`ModelLoadError` if unusable)."""
+def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Agent:
+    """A baseline by name, or a trained model by path (:class:`ModelLoadError` if unusable).
+
+    A model whose run was trained on another env id is used, with a one-line warning on stderr.
+    """
     if spec in BASELINES:
         return BASELINES[spec](env.unwrapped.episode_spec)
-    return SB3Agent.load(spec, env.observation_space.shape)
+    if not Path(spec).is_file():
+        raise ModelLoadError(f"{spec}: neither a baseline ({', '.join(BASELINES)}) nor a model file")
+    agent = SB3Agent.load(spec, env.observation_space.shape, raw_observations_ok)
+    if agent.trained_env is not None and agent.trained_env != env.spec.id:
+        print(f"warning: {spec} was trained on {agent.trained_env} (its run.json), "
+              f"evaluated here on {env.spec.id}", file=sys.stderr)
+    return agent
 
 
 def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False) -> dict[str, Any]:
-    """One seeded episode: start state, outcome, return, and the trajectory if asked for."""
+    """One seeded episode: start state, outcome, return, and the trajectory if asked for
+    (rows: t [s], X [m], θ [rad], beam offset d [m], beam tilt ψ [rad])."""
+    action_scale = env.unwrapped.episode_spec.action_scale
     obs, info = env.reset(seed=seed)
     agent.reset()
     start = info["state"]
@@ -59,7 +81,8 @@ def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False)
         total += reward
         done = terminated or truncated
         if trajectory:
-            steps.append((info["t"], info["state"]["x"], info["state"]["theta"], *np.clip(action, -1, 1)))
+            steps.append((info["t"], info["state"]["x"], info["state"]["theta"],
+                          *np.clip(action, -1, 1) * action_scale))
     episode = {"seed": seed, **{f"{k}0": start[k] for k in START_KEYS}, "cutoff_s": info["cutoff_s"],
                "terminal_pointing_rad": info["terminal_pointing_rad"],
                "success": bool(info["is_success"]), "diverged": bool(info["diverged"]), "return": total}
@@ -96,35 +119,89 @@ def summarise(episodes: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------- plots
+MARKERS = "osD^vPX*"
+LINESTYLES = ("-", "--", ":", "-.")
+#: Curves closer than this fraction of a panel's range are said to coincide.
+COINCIDE = 0.01
+
+
+def agent_styles(names: Iterable[str]) -> dict[str, dict[str, Any]]:
+    """One look per agent, the same in every plot. Earlier agents are drawn wider, with larger
+    hollow markers, under later ones: curves that coincide stay visible as a bundle."""
+    names = list(names)
+    last = max(len(names) - 1, 1)
+    return {name: {"color": f"C{i}", "marker": MARKERS[i % len(MARKERS)], "ls": LINESTYLES[i % len(LINESTYLES)],
+                   "lw": 1.0 + 2.0 * (last - i) / last, "ms": 4.0 + 3.0 * (last - i) / last,
+                   "mfc": "none", "mew": 1.2, "zorder": 2 + i, "label": name}
+            for i, name in enumerate(names)}
+
+
+def coinciding(curves: dict[str, np.ndarray]) -> list[list[str]]:
+    """Groups of two or more agents whose curves differ by less than :data:`COINCIDE` of the range."""
+    values = [np.asarray(c, dtype=float) for c in curves.values()]
+    if len({v.shape for v in values}) != 1:
+        return []
+    finite = np.concatenate([v[np.isfinite(v)] for v in values])
+    span = np.ptp(finite) if finite.size else 0.0
+    groups: list[tuple[np.ndarray, list[str]]] = []
+    for name, value in zip(curves, values):
+        for first, members in groups:
+            if np.nanmax(np.abs(value - first), initial=0.0) <= COINCIDE * span:
+                members.append(name)
+                break
+        else:
+            groups.append((value, [name]))
+    return [members for _, members in groups if len(members) > 1]
+
+
+def note_coinciding(ax: plt.Axes, curves: dict[str, np.ndarray]) -> None:
+    """Say above the panel which curves lie on top of each other."""
+    notes = [" = ".join(group) for group in coinciding(curves)]
+    if notes:
+        ax.set_title(f"coincide (< {COINCIDE:.0%} of range): " + "; ".join(notes), loc="right", fontsize=7,
+                     color="0.3")
+
+
+def save_with_legend_above(fig: plt.Figure, ax: plt.Axes, path: Path) -> None:
+    """The legend in a band above the panels, where it covers no curve; save and close."""
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 3), fontsize=8, frameon=False)
+    rows = -(-len(labels) // 3)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 * rows / fig.get_figheight()))
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def plot_pointing(results: dict[str, list[dict[str, Any]]], path: Path) -> None:
     """Empirical CDF of terminal pointing per agent, log axis, 10 nrad line (diverged: never reached)."""
     fig, ax = plt.subplots(figsize=(6.4, 4))
-    for name, episodes in results.items():
-        values = np.sort([e["terminal_pointing_rad"] for e in episodes])
-        ax.step(values, np.arange(1, len(values) + 1) / len(values), where="post", label=name)
+    for name, style in agent_styles(results).items():
+        values = np.sort([e["terminal_pointing_rad"] for e in results[name]])
+        ax.step(values, np.arange(1, len(values) + 1) / len(values), where="post",
+                **{k: v for k, v in style.items() if k not in ("marker", "ms", "mfc", "mew")})
     ax.axvline(POINTING_TOLERANCE_RAD, color="k", ls="--", lw=1, label="10 nrad")
     ax.set(xscale="log", xlabel="terminal pointing [rad]", ylabel="fraction of episodes ≤ x", ylim=(0, 1.02))
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_with_legend_above(fig, ax, path)
 
 
 def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path) -> None:
-    """X, θ and both beam actions over the control window, every agent from the same start."""
-    fig, axes = plt.subplots(4, 1, figsize=(6.4, 7.5), sharex=True)
-    labels = ("X [mm]", "θ [mrad]", "beam offset (action 0)", "beam tilt (action 1)")
-    scales = (1e3, 1e3, 1.0, 1.0)
-    for name, steps in trajectories.items():
-        for k, ax in enumerate(axes):
-            ax.plot(steps[:, 0], steps[:, k + 1] * scales[k], lw=1, label=name)
-    for ax, label in zip(axes, labels):
+    """X, θ and the beam input over the control window, every agent from the same start.
+
+    The beam offset and tilt are in the units of X and θ: they act through ``X − d`` and ``θ − ψ``.
+    """
+    fig, axes = plt.subplots(4, 1, figsize=(6.4, 7.8), sharex=True)
+    labels = ("X [mm]", "θ [mrad]", "beam offset d [mm]", "beam tilt ψ [mrad]")
+    styles = agent_styles(trajectories)
+    for k, (ax, label) in enumerate(zip(axes, labels)):
+        curves = {name: steps[:, k + 1] * 1e3 for name, steps in trajectories.items()}
+        for i, (name, curve) in enumerate(curves.items()):
+            times = trajectories[name][:, 0]
+            every = max(len(times) // 10, 1)  # markers staggered per agent, so they do not hide each other
+            ax.plot(times, curve, markevery=(i * every // max(len(curves), 1), every), **styles[name])
         ax.set_ylabel(label, fontsize=8)
+        note_coinciding(ax, curves)
     axes[-1].set_xlabel("flight time [s]")
-    axes[0].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_with_legend_above(fig, axes[0], path)
 
 
 def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, bins: int = 8) -> None:
@@ -135,14 +212,14 @@ def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, b
     which = np.clip(np.searchsorted(edges, tilts, side="right") - 1, 0, bins - 1)
     centres = [tilts[which == b].mean() for b in range(bins)]
     fig, ax = plt.subplots(figsize=(6.4, 4))
-    for name, episodes in results.items():
-        success = np.array([e["success"] for e in episodes], dtype=float)
-        ax.plot(centres, [success[which == b].mean() for b in range(bins)], "o-", label=name)
-    ax.set(xlabel="|θ| at start of control [mrad] (bins of equal count)", ylabel="success rate", ylim=(-0.02, 1.02))
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    rates = {}
+    for name, style in agent_styles(results).items():
+        success = np.array([e["success"] for e in results[name]], dtype=float)
+        rates[name] = np.array([success[which == b].mean() for b in range(bins)])
+        ax.plot(centres, rates[name], **style)
+    note_coinciding(ax, rates)
+    ax.set(xlabel="|θ| at start of control [mrad] (bins of equal count)", ylabel="success rate", ylim=(-0.02, 1.05))
+    save_with_legend_above(fig, ax, path)
 
 
 # ---------------------------------------------------------------------- report
@@ -214,46 +291,83 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int) -> list[dict[
              "return": float(returns[i])} for i in range(episodes)]
 
 
-def evaluate(env_id: str, specs: list[str], episodes: int, seed: int) -> tuple[dict, dict]:
+def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: bool = True) -> list[dict[str, Any]]:
+    """:func:`run_batch` in batches of :data:`BATCH_EPISODES` (the same episodes), with a progress bar
+    on a terminal, else one line on stderr when done."""
+    bar = tqdm(total=episodes, desc=agent.name, unit="episode", file=sys.stderr,
+               disable=not (progress and sys.stderr.isatty()))
+    start, results = time.perf_counter(), []
+    with bar:
+        for first in range(0, episodes, BATCH_EPISODES):
+            batch = min(BATCH_EPISODES, episodes - first)
+            results += run_batch(env_id, agent, batch, seed + first)
+            bar.update(batch)
+    if progress and bar.disable:
+        print(f"{agent.name}: {episodes} episodes in {time.perf_counter() - start:.1f} s", file=sys.stderr)
+    return results
+
+
+def evaluate(env_id: str, specs: list[str], episodes: int, seed: int, raw_observations_ok: bool = False,
+             progress: bool = True) -> tuple[dict, dict]:
     """Every agent on episodes ``seed … seed + episodes − 1``; per-episode results, and the
-    trajectory of episode ``seed`` from a single env."""
+    trajectory of episode ``seed`` from a single env. All agents are loaded before any episode runs."""
     env = gym.make(env_id)
-    agents = [make_agent(spec, env) for spec in specs]
+    agents = [make_agent(spec, env, raw_observations_ok) for spec in specs]
     names = [agent.name for agent in agents]
     if len(set(names)) != len(names):
         raise ValueError(f"agent names must be distinct, got {names}")
     results, trajectories = {}, {}
     for agent in agents:
-        results[agent.name] = run_batch(env_id, agent, episodes, seed)
+        results[agent.name] = run_agent(env_id, agent, episodes, seed, progress)
         trajectories[agent.name] = run_episode(env, agent, seed, trajectory=True)["trajectory"]
     env.close()
     return results, trajectories
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="LightSail-v0")
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The arguments, checked: :class:`UsageError` (one line) for any that is bad."""
+    parser = Parser(description=__doc__, formatter_class=HelpFormatter)
+    parser.add_argument("--env", default="LightSail-v0", help=f"task id: {', '.join(TASKS)}")
     parser.add_argument("--agent", action="append", required=True,
-                        help=f"one of {sorted(BASELINES)} or a model .zip; repeat to compare")
-    parser.add_argument("--episodes", type=int, default=200)
+                        help=f"one of {', '.join(BASELINES)} or a model .zip; repeat to compare")
+    parser.add_argument("--episodes", type=int, default=200, help="paired episodes per agent")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses reset(seed=seed + i)")
-    parser.add_argument("--out", type=Path, help="report directory (default reports/<env>)")
+    parser.add_argument("--out", type=Path, help="report directory (default: reports/<env>)")
+    parser.add_argument("--raw-observations", action="store_true",
+                        help="accept models with neither a run.json nor VecNormalize statistics beside them as "
+                             "trained on raw observations (refused otherwise)")
+    parser.add_argument("--no-progress-bar", action="store_true",
+                        help="no bar on a terminal, no line per agent otherwise")
     args = parser.parse_args(argv)
+    if args.env not in TASKS:
+        parser.error(f"--env must be one of {', '.join(TASKS)}, got {args.env!r}")
     if args.episodes < 1:
-        parser.error("--episodes must be >= 1")
-    one_thread_per_process()
+        parser.error(f"--episodes must be >= 1, got {args.episodes}")
+    if args.seed < 0:
+        parser.error(f"--seed must be >= 0, got {args.seed}")
+    args.out = args.out or Path("reports") / args.env
+    check_writable_dir(args.out, "--out")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    """evaluate.py: 0, or 2 after one line on stderr (nothing written)."""
     try:
-        results, trajectories = evaluate(args.env, args.agent, args.episodes, args.seed)
-    except (ModelLoadError, ValueError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    out = args.out or Path("reports") / args.env
+        args = parse_args(argv)
+        one_thread_per_process()
+        results, trajectories = evaluate(args.env, args.agent, args.episodes, args.seed, args.raw_observations,
+                                         progress=not args.no_progress_bar)
+    except (UsageError, ModelLoadError, ValueError) as err:
+        return fail(err)
     config = {"episodes": args.episodes, "seed": args.seed, "agents": args.agent,
               "env_kwargs": {k: repr(v) for k, v in gym.spec(args.env).kwargs.items()}}
-    report = write_report(out, args.env, config, results, trajectories)
+    try:
+        report = write_report(args.out, args.env, config, results, trajectories)
+    except OSError as err:  # writable when checked, but not now (disk full, removed): keep what was written
+        return fail(f"--out {args.out}: {err} (the files written before it are kept)")
     for name, s in report["agents"].items():
         lo, hi = s["success_ci95"]
         print(f"{name:>32}: success {s['success_rate']:.1%} [{lo:.1%}, {hi:.1%}], "
               f"median pointing {fmt(s['terminal_pointing_rad']['median'])} rad, mean return {s['mean_return']:.2f}")
-    print(f"report: {out / 'report.md'}")
+    print(f"report: {args.out / 'report.md'}")
     return 0

@@ -3,11 +3,14 @@
 A run directory (``train.py --out DIR``) holds, for every saved model ``NAME.zip``, the
 ``VecNormalize`` statistics it was trained with in ``NAME_vecnormalize.pkl``
 (checkpoints follow SB3's own naming, ``rl_model_vecnormalize_<N>_steps.pkl``).
-:meth:`SB3Agent.load` finds them from the model path.
+:meth:`SB3Agent.load` finds them from the model path, and the run's ``run.json`` tells it
+whether the model needs them and which env it was trained on.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import pickle
 import re
 from pathlib import Path
@@ -27,13 +30,17 @@ from stable_baselines3.sac.policies import SACPolicy
 from stable_baselines3.td3.policies import TD3Policy
 from threadpoolctl import threadpool_limits
 
+from agents import zoo_syntax
 from sail_env.provenance import package_versions
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
 #: The policy class stored in a model file tells which algorithm trained it.
 _POLICY_ALGOS = ((ActorCriticPolicy, "ppo"), (SACPolicy, "sac"), (TD3Policy, "td3"))
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
-_ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU}
+#: Hyperparameters that may be a schedule (``lin_<number>``).
+SCHEDULES = ("learning_rate", "clip_range")
+#: What ``normalize`` may set (``gamma`` comes from the algorithm's).
+NORMALIZE_KEYS = frozenset({"norm_obs", "norm_reward", "clip_obs", "clip_reward", "epsilon"})
 _CHECKPOINT = re.compile(r"^(?P<prefix>.+)_(?P<steps>\d+)_steps$")
 
 
@@ -56,21 +63,36 @@ def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> 
 
 
 def policy_kwargs(value: str | dict[str, Any] | None) -> dict[str, Any]:
-    """``policy_kwargs`` from YAML: a dict, or a Zoo-style string ``"dict(net_arch=[64, 64])"``.
+    """``policy_kwargs`` from YAML: a dict, or a Zoo-style string ``"dict(net_arch=[64, 64])"``
+    (read by :func:`agents.zoo_syntax.parse`, never executed).
 
-    ``activation_fn`` may be a name (``tanh``, ``relu``, ``elu``) or ``nn.Tanh`` in a string.
+    ``activation_fn`` may be ``nn.Tanh`` in a string or a name (``tanh``, ``relu``, ...).
     """
     if value is None:
         return {}
     if isinstance(value, str):
-        value = eval(value, {"__builtins__": {}}, {"dict": dict, "nn": torch.nn})  # noqa: S307 (Zoo format)
+        value = zoo_syntax.parse(value, "policy_kwargs")
+    if not isinstance(value, dict):
+        raise ValueError(f"policy_kwargs must be a mapping or 'dict(...)', got {value!r}")
     kwargs = dict(value)
-    activation = kwargs.get("activation_fn")
-    if isinstance(activation, str):
-        if activation.lower() not in _ACTIVATIONS:
-            raise ValueError(f"activation_fn must be one of {sorted(_ACTIVATIONS)}, got {activation!r}")
-        kwargs["activation_fn"] = _ACTIVATIONS[activation.lower()]
+    if "activation_fn" in kwargs:
+        kwargs["activation_fn"] = zoo_syntax.activation(kwargs["activation_fn"], "policy_kwargs.activation_fn")
     return kwargs
+
+
+def schedule(key: str, value: Any) -> float | LinearSchedule:
+    """A number, or the Zoo's ``lin_<number>``: from that value down to 0 over training."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+        return value
+    if isinstance(value, str) and value.startswith("lin_"):
+        try:
+            start = float(value.removeprefix("lin_"))
+        except ValueError:
+            start = math.nan
+        if math.isfinite(start):
+            return LinearSchedule(start, 0.0, 1.0)
+    raise ValueError(f"{key} must be a finite number (YAML reads 3e-4 as text: write 3.0e-4) "
+                     f"or lin_<number>, got {value!r}")
 
 
 def algo_kwargs(hyperparams: dict[str, Any], n_actions: int) -> dict[str, Any]:
@@ -81,10 +103,9 @@ def algo_kwargs(hyperparams: dict[str, Any], n_actions: int) -> dict[str, Any]:
     ``action_noise``.
     """
     kwargs = dict(hyperparams)
-    for key in ("learning_rate", "clip_range"):
-        value = kwargs.get(key)
-        if isinstance(value, str) and value.startswith("lin_"):
-            kwargs[key] = LinearSchedule(float(value.removeprefix("lin_")), 0.0, 1.0)
+    for key in SCHEDULES:
+        if key in kwargs:
+            kwargs[key] = schedule(key, kwargs[key])
     kwargs["policy_kwargs"] = policy_kwargs(kwargs.get("policy_kwargs"))
     noise_type, noise_std = kwargs.pop("noise_type", None), kwargs.pop("noise_std", 0.1)
     if noise_type is not None:
@@ -95,12 +116,15 @@ def algo_kwargs(hyperparams: dict[str, Any], n_actions: int) -> dict[str, Any]:
 
 
 def normalize_kwargs(value: bool | str | dict[str, Any]) -> dict[str, Any] | None:
-    """``normalize`` from YAML: ``true``, ``false`` or VecNormalize kwargs (dict or Zoo string)."""
+    """``normalize`` from YAML: ``true``, ``false`` or VecNormalize kwargs (a mapping or a Zoo
+    string ``"dict(norm_obs=True, norm_reward=False)"``, read by :func:`agents.zoo_syntax.parse`)."""
     if isinstance(value, str):
-        value = eval(value, {"__builtins__": {}}, {"dict": dict})  # noqa: S307 (Zoo format)
-    if value is False:
-        return None
-    return {} if value is True else dict(value)
+        value = zoo_syntax.parse(value, "normalize")
+    if isinstance(value, bool):
+        return {} if value else None
+    if not isinstance(value, dict) or not set(value) <= NORMALIZE_KEYS:
+        raise ValueError(f"normalize must be true, false or a mapping of {sorted(NORMALIZE_KEYS)}, got {value!r}")
+    return dict(value)
 
 
 # ---------------------------------------------------------------------- files
@@ -120,6 +144,40 @@ def save_model(model: BaseAlgorithm, path: Path) -> None:
     normalizer = model.get_vec_normalize_env()
     if normalizer is not None:
         normalizer.save(normalizer_path(path))
+
+
+def run_record(model_path: str | Path) -> tuple[Path, dict[str, Any]] | None:
+    """``run.json`` and its ``config`` for a model train.py saved: in the model's folder, or the
+    one above (``checkpoints/``); ``None`` if neither has one."""
+    model_path = Path(model_path)
+    for folder in (model_path.parent, model_path.parent.parent):
+        record = folder / "run.json"
+        if record.is_file():
+            try:
+                config = json.loads(record.read_text())["config"]
+            except (OSError, ValueError, KeyError, TypeError) as err:
+                raise ModelLoadError(f"{record}: not a readable run record ({type(err).__name__})") from err
+            if not isinstance(config, dict):
+                raise ModelLoadError(f"{record}: not a readable run record (config is not a mapping)")
+            return record, config
+    return None
+
+
+def load_normalizer(path: Path, observation_shape: tuple[int, ...]) -> VecNormalize:
+    """VecNormalize statistics saved by :func:`save_model`, frozen, for observations of ``observation_shape``."""
+    try:
+        with path.open("rb") as file:
+            normalizer = pickle.load(file)  # what VecNormalize.load does, without a venv
+    except Exception as err:
+        raise ModelLoadError(f"{path}: cannot load normaliser ({type(err).__name__})") from err
+    if not isinstance(normalizer, VecNormalize):
+        raise ModelLoadError(f"{path}: not VecNormalize statistics ({type(normalizer).__name__})")
+    shape = np.shape(getattr(normalizer.obs_rms, "mean", None))
+    if normalizer.norm_obs and shape != tuple(observation_shape):
+        raise ModelLoadError(f"{path}: statistics of observations of shape {shape}, the model's have shape "
+                             f"{tuple(observation_shape)} (statistics of another env?)")
+    normalizer.training = False
+    return normalizer
 
 
 def algo_of(model_path: str | Path) -> str:
@@ -150,35 +208,55 @@ def versions() -> dict[str, str]:
 
 # ---------------------------------------------------------------------- trained agents
 class SB3Agent:
-    """A trained SB3 model behind the :class:`~agents.base.Agent` interface (deterministic)."""
+    """A trained SB3 model behind the :class:`~agents.base.Agent` interface (deterministic).
 
-    def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize | None, name: str) -> None:
-        self.model, self.normalizer, self.name = model, normalizer, name
+    ``trained_env`` is the env id its run was trained on (from ``run.json``), if known.
+    """
+
+    def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize | None, name: str,
+                 trained_env: str | None = None) -> None:
+        self.model, self.normalizer, self.name, self.trained_env = model, normalizer, name, trained_env
 
     @classmethod
-    def load(cls, path: str | Path, observation_shape: tuple[int, ...] | None = None) -> SB3Agent:
-        """Load ``path`` and the normaliser saved beside it; :class:`ModelLoadError` if unusable."""
+    def load(cls, path: str | Path, observation_shape: tuple[int, ...] | None = None,
+             raw_observations_ok: bool = False) -> SB3Agent:
+        """Load ``path`` and the normaliser saved beside it; :class:`ModelLoadError` if unusable.
+
+        Whether the model needs VecNormalize statistics comes from its run's ``run.json``
+        (:func:`run_record`); needed and missing, or unneeded and present, is refused.
+        Without a ``run.json`` statistics beside the model are used; if there are none the
+        model is refused unless ``raw_observations_ok`` (a model trained with VecNormalize
+        on raw observations points far worse, silently). Both files are unpickled: they run
+        code when loaded, so load only files from a trusted source.
+        """
         path = Path(path)
         if not path.is_file():
             raise ModelLoadError(f"{path}: model file not found")
         algo = algo_of(path)
+        stats, record = normalizer_path(path), run_record(path)
+        if record is not None:
+            record_path, config = record
+            try:
+                normalised = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
+            except (KeyError, AttributeError, TypeError, ValueError) as err:
+                raise ModelLoadError(f"{record_path}: no readable hyperparams.normalize ({err})") from err
+            if normalised != stats.is_file():
+                raise ModelLoadError(f"{stats}: {'not found' if normalised else 'unexpected'}; {record_path} says the "
+                                     f"model was trained {'with' if normalised else 'without'} VecNormalize")
+        elif not stats.is_file() and not raw_observations_ok:
+            raise ModelLoadError(f"{stats}: not found, and no run.json beside {path.name} says whether it was trained "
+                                 "with VecNormalize (evaluate.py --raw-observations: it was not)")
         try:
             model = ALGOS[algo].load(path, device="cpu")
         except Exception as err:
             raise ModelLoadError(f"{path}: cannot load {algo} model ({type(err).__name__}: {err})") from err
-        if observation_shape is not None and model.observation_space.shape != tuple(observation_shape):
-            raise ModelLoadError(f"{path}: trained on observations of shape {model.observation_space.shape}, "
+        shape = model.observation_space.shape
+        if observation_shape is not None and shape != tuple(observation_shape):
+            raise ModelLoadError(f"{path}: trained on observations of shape {shape}, "
                                  f"this env has {tuple(observation_shape)}")
-        stats = normalizer_path(path)
-        normalizer = None
-        if stats.is_file():
-            try:
-                with stats.open("rb") as file:
-                    normalizer = pickle.load(file)  # what VecNormalize.load does, without a venv
-            except Exception as err:
-                raise ModelLoadError(f"{stats}: cannot load normaliser ({type(err).__name__})") from err
-            normalizer.training = False
-        return cls(model, normalizer, f"{algo}:{path.parent.name}/{path.stem}")
+        normalizer = load_normalizer(stats, shape) if stats.is_file() else None
+        trained_env = record[1].get("env") if record is not None else None
+        return cls(model, normalizer, f"{algo}:{path.parent.name}/{path.stem}", trained_env)
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         if self.normalizer is not None:

@@ -383,6 +383,10 @@ def differences(report: dict) -> list[dict]:
     ]
 
 
+QUICK_NOTE = ("> **A coarse run (`--quick`)**: fewer grid points and integration steps than the full "
+              "report; its numbers check the code, not the paper: cite the report without `--quick`.")
+
+
 def render_markdown(report: dict) -> str:
     """The human-readable report; every number is read from ``report``."""
     rel, fig5, stab, tol, mis = (report[k] for k in SECTIONS)
@@ -394,6 +398,7 @@ def render_markdown(report: dict) -> str:
         f"Command: `{report['command']}`  ",
         "Versions: " + ", ".join(f"{k} {v}" for k, v in report["versions"].items()),
         "",
+        *([QUICK_NOTE, ""] if report["quick"] else []),
         "## Figure 4: relativity (`figure4_relativity.png`)",
         "",
         "Time to β = 0.2 at 50 GW, perfect mirror (correct law: d(γβ)/dt = (2P/mc²)(1−β)/(1+β), "
@@ -492,7 +497,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    report: dict = {"command": f"{parser.prog} {shlex.join(argv)}",
+    report: dict = {"command": f"{parser.prog} {shlex.join(argv)}", "quick": args.quick,
                     "versions": package_versions("lightsail-gym", "numpy", "scipy", "matplotlib")}
     for name, section, figure_name in (("relativity", relativity, "figure4_relativity"),
                                        ("figure5", figure5, "figure5_perturbations"),
@@ -504,7 +509,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     report["differences"] = differences(report)
     (args.out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False) + "\n")
     (args.out / "report.md").write_text(render_markdown(report))
-    print(f"wrote {args.out / 'report.md'}")
+    print(f"wrote {args.out / 'report.md'}" + (" (--quick: a coarse run)" if args.quick else ""))
     return 0
 
 

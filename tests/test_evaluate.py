@@ -5,21 +5,38 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
+import tempfile
 from pathlib import Path
 
+import gymnasium as gym
+import numpy as np
 import pytest
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 ROOT = Path(__file__).resolve().parents[1]
+from agents import LQGAgent
 from agents import evaluation as evaluate
 from agents import training as train
+from agents.sb3 import SB3Agent, normalizer_path
+from sail_env.tasks import TASKS
 
 
 @pytest.fixture(scope="module")
 def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("run")
+    """A PPO model trained for a few hundred steps with VecNormalize, in train.py's run layout."""
+    out = tmp_path_factory.mktemp("run") / "run"
     assert train.main(["--algo", "ppo", "--timesteps", "256", "--n-envs", "2", "--eval-freq", "0",
                        "--out", str(out), "--no-progress-bar"]) == 0
-    return out / "final_model.zip"
+    return next(out.rglob("final_model.zip"))
+
+
+@pytest.fixture
+def run_copy(model: Path, tmp_path: Path) -> Path:
+    """The model in a copy of its run folder, for tests that damage it."""
+    copy = tmp_path / "run"
+    shutil.copytree(model.parent, copy)
+    return copy / model.name
 
 
 def _strict_json(path: Path) -> dict:
@@ -79,3 +96,176 @@ def test_missing_or_corrupt_model_is_a_one_line_error(content: bytes | None, tmp
     err = capsys.readouterr().err.strip()
     assert str(path) in err and "\n" not in err
     assert not (tmp_path / "report.json").exists()
+
+
+# ---------------------------------------------------------------------- command-line errors
+def _refused(argv: list[str], capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Run evaluate.py expecting a refusal before any episode: exit 2, one line on stderr; that line."""
+    def no_episodes(*args: object) -> None:
+        raise AssertionError("an episode ran before the refusal")
+    monkeypatch.setattr(evaluate, "run_batch", no_episodes)
+    assert evaluate.main(argv) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert err.startswith("error: ") and "\n" not in err and "Traceback" not in err
+    assert captured.out == ""
+    return err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--env", "Bogus-v0", "--agent", "lqr"], "--env must be one of LightSail-v0, LightSailDeepDish-v0"),
+    (["--env", "CartPole-v1", "--agent", "lqr"], "got 'CartPole-v1'"),
+    (["--seed", "-1", "--agent", "lqr"], "--seed must be >= 0, got -1"),
+    (["--episodes", "0", "--agent", "lqr"], "--episodes must be >= 1"),
+    (["--episodes", "ten", "--agent", "lqr"], "invalid int value: 'ten'"),
+    ([], "the following arguments are required: --agent"),
+    (["--agent", "lqr", "--bogus"], "unrecognized arguments: --bogus"),
+    (["--agent", "lqx"], "lqx: neither a baseline (passive, lqr, lqg) nor a model file"),
+    (["--agent", "lqr", "--agent", "lqr"], "agent names must be distinct"),
+])
+def test_bad_arguments_are_one_line_and_exit_2_with_nothing_written(
+        argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "report"
+    assert message in _refused([*argv, "--out", str(out)], capsys, monkeypatch)
+    assert not out.exists()
+
+
+def test_out_under_a_file_is_refused_before_any_episode(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "file").write_text("")
+    err = _refused(["--agent", "lqr", "--out", str(tmp_path / "file" / "report")], capsys, monkeypatch)
+    assert f"{tmp_path / 'file'} is not a directory" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+def test_out_where_nothing_can_be_written_is_refused_before_any_episode(capsys: pytest.CaptureFixture,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    out = Path("/sys/lightsail-report")  # sysfs refuses new files, even to root
+    try:
+        with tempfile.NamedTemporaryFile(dir="/sys"):
+            pytest.skip("/sys is writable here")
+    except OSError:
+        pass
+    assert "--out /sys/lightsail-report: cannot write in /sys" in _refused(["--agent", "lqr", "--out", str(out)],
+                                                                           capsys, monkeypatch)
+    assert not out.exists()
+
+
+def test_a_failed_write_keeps_the_files_written_before_it(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    def disk_full(*args: object) -> None:
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(evaluate, "plot_success_vs_tilt", disk_full)
+    assert evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(tmp_path), "--no-progress-bar"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "No space left on device" in err and "files written before it are kept" in err and "\n" not in err
+    assert (tmp_path / "report.json").is_file() and not (tmp_path / "report.md").exists()
+
+
+def test_help_shows_defaults_and_env_ids(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        evaluate.main(["--help"])
+    assert exit_.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "(default: 200)" in text and f"(default: {evaluate.DEFAULT_SEED})" in text
+    assert "(default: LightSail-v0)" in text and "(default: None)" not in text
+    for env_id in TASKS:
+        assert env_id in text
+
+
+# ---------------------------------------------------------------------- models and their statistics
+def test_missing_statistics_are_refused_naming_the_file(run_copy: Path, capsys: pytest.CaptureFixture,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    stats = normalizer_path(run_copy)
+    stats.unlink()
+    err = _refused(["--agent", str(run_copy), "--out", str(run_copy.parent / "report")], capsys, monkeypatch)
+    assert f"{stats}: not found" in err and "run.json says the model was trained with VecNormalize" in err
+
+
+def test_statistics_of_another_env_are_refused_naming_the_file_and_both_shapes(
+        run_copy: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    stats = normalizer_path(run_copy)
+    VecNormalize(DummyVecEnv([lambda: gym.make("LightSailRealistic-v0")])).save(str(stats))
+    err = _refused(["--agent", str(run_copy), "--out", str(run_copy.parent / "report")], capsys, monkeypatch)
+    assert f"{stats}: statistics of observations of shape (25,), the model's have shape (5,)" in err
+
+
+def test_statistics_a_run_did_not_use_are_refused(run_copy: Path, capsys: pytest.CaptureFixture,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    record = run_copy.parent / "run.json"
+    run = json.loads(record.read_text())
+    run["config"]["hyperparams"]["normalize"] = False
+    record.write_text(json.dumps(run))
+    err = _refused(["--agent", str(run_copy), "--out", str(run_copy.parent / "report")], capsys, monkeypatch)
+    assert f"{normalizer_path(run_copy)}: unexpected; {record} says the model was trained without" in err
+
+
+def test_without_run_json_statistics_beside_the_model_are_used(run_copy: Path, tmp_path: Path) -> None:
+    (run_copy.parent / "run.json").unlink()
+    agent = SB3Agent.load(run_copy, (5,))
+    assert agent.normalizer is not None and agent.trained_env is None
+
+
+def test_without_run_json_or_statistics_raw_observations_need_the_flag(
+        run_copy: Path, tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    (run_copy.parent / "run.json").unlink()
+    normalizer_path(run_copy).unlink()
+    argv = ["--agent", str(run_copy), "--episodes", "2", "--out", str(tmp_path / "report"), "--no-progress-bar"]
+    with monkeypatch.context() as patch:
+        err = _refused(argv, capsys, patch)
+    assert f"{normalizer_path(run_copy)}: not found, and no run.json" in err and "--raw-observations" in err
+    assert evaluate.main([*argv, "--raw-observations"]) == 0
+
+
+def test_a_checkpoint_finds_the_run_json_above_it(run_copy: Path) -> None:
+    checkpoint = run_copy.parent / "checkpoints" / "rl_model_256_steps.zip"
+    checkpoint.parent.mkdir(exist_ok=True)
+    shutil.copy(run_copy, checkpoint)
+    shutil.copy(normalizer_path(run_copy), normalizer_path(checkpoint))
+    agent = SB3Agent.load(checkpoint, (5,))
+    assert agent.normalizer is not None and agent.trained_env == "LightSail-v0"
+
+
+def test_a_model_evaluated_on_another_task_gets_one_warning_naming_both(model: Path, tmp_path: Path,
+                                                                        capsys: pytest.CaptureFixture) -> None:
+    assert evaluate.main(["--env", "LightSailDeepDish-v0", "--agent", str(model), "--episodes", "2",
+                          "--out", str(tmp_path), "--no-progress-bar"]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 1
+    assert "trained on LightSail-v0" in warnings[0] and "evaluated here on LightSailDeepDish-v0" in warnings[0]
+
+
+def test_the_right_task_gets_no_warning(model: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    assert evaluate.main(["--agent", str(model), "--episodes", "2", "--out", str(tmp_path), "--no-progress-bar"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+# ---------------------------------------------------------------------- progress, batches, plots
+def test_without_a_terminal_each_agent_reports_one_line_when_done(tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture) -> None:
+    assert evaluate.main(["--agent", "passive", "--agent", "lqr", "--episodes", "3", "--out", str(tmp_path)]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(" in ")[0] for line in lines] == ["passive: 3 episodes", "lqr: 3 episodes"]
+
+
+def test_batches_play_the_same_episodes_as_one_batch(monkeypatch: pytest.MonkeyPatch) -> None:
+    agent = LQGAgent(gym.make("LightSailRealistic-v0").unwrapped.episode_spec)
+    whole = evaluate.run_batch("LightSailRealistic-v0", agent, 5, 7)
+    monkeypatch.setattr(evaluate, "BATCH_EPISODES", 2)
+    assert evaluate.run_agent("LightSailRealistic-v0", agent, 5, 7, progress=False) == whole
+
+
+def test_coinciding_curves_are_grouped() -> None:
+    t = np.linspace(0, 1, 50)
+    curves = {"a": t, "b": t + 0.005, "c": 1 - t, "d": t + 0.5}
+    assert evaluate.coinciding(curves) == [["a", "b"]]
+    assert evaluate.coinciding({"a": t, "b": t[:10]}) == []
+
+
+def test_agent_styles_differ_so_coinciding_curves_stay_visible() -> None:
+    styles = evaluate.agent_styles(["passive", "lqr", "ppo"])
+    for key in ("marker", "ls", "color"):
+        assert len({s[key] for s in styles.values()}) == 3
+    widths = [s["lw"] for s in styles.values()]
+    assert widths == sorted(widths, reverse=True)  # the later, thinner curve is drawn on top

@@ -42,6 +42,7 @@ def test_writes_report_and_figures(run):
         assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 10_000
     text = (out / "report.md").read_text()
     assert f"`python -m sail_env.paper --out {out} --quick`" in text
+    assert report["quick"] is True and paper.QUICK_NOTE in text
     assert report["versions"]["numpy"] == np.__version__
     assert f"{report['relativity']['t_0.2c_doppler_s']:.1f} s" in text
     assert f"{report['tolerance']['max_passive_tilt_rad']:.3e} rad" in text

@@ -1,0 +1,53 @@
+"""Command-line conventions of the scripts: a bad input is one line on stderr and exit code 2."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+
+class UsageError(ValueError):
+    """A bad command-line argument; the message is one line."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that raises :class:`UsageError` instead of printing the usage and exiting."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(f"{message} (see --help)")
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Shows defaults (not the absent ones: ``None``, an unset flag), keeps the description's and
+    epilog's line breaks."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default is None or action.default is False:
+            return action.help
+        return super()._get_help_string(action)
+
+
+def fail(message: object) -> int:
+    """Print ``error: message`` as one line on stderr; the exit code of a refused input."""
+    print(f"error: {' '.join(str(message).split())}", file=sys.stderr)
+    return 2
+
+
+def check_writable_dir(path: Path, flag: str) -> None:
+    """Refuse now, not after the work: ``path``, or the nearest folder above it that exists, must
+    be a folder a file can be created in (tried, and removed). Creates nothing that stays."""
+    existing = path
+    try:
+        while not existing.exists():
+            existing = existing.parent
+    except OSError as err:
+        raise UsageError(f"{flag} {path}: cannot inspect {existing} ({err.strerror})") from err
+    if not existing.is_dir():
+        raise UsageError(f"{flag} {path}: {existing} is not a directory")
+    try:
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".write-check-"):
+            pass
+    except OSError as err:
+        raise UsageError(f"{flag} {path}: cannot write in {existing} ({err.strerror or err})") from err
