@@ -43,7 +43,7 @@ from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback, fail_s
 from optuna.trial import FrozenTrial, TrialState
 from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
 
-from agents import evaluation, training
+from agents import cli, evaluation, training
 from agents.sb3 import ALGOS, load_hyperparams, versions
 from sail_env.tasks import TASKS
 
@@ -379,8 +379,8 @@ def replace_in_readme(readme: Path, table: str) -> None:
 
 # ---------------------------------------------------------------------- command line
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = training.OneLineParser(prog="python -m agents.grid", description=__doc__.splitlines()[0],
-                                    formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = cli.Parser(prog="python -m agents.grid", description=__doc__.splitlines()[0],
+                        formatter_class=cli.HelpFormatter)
     parser.add_argument("command", choices=("run", "status", "render"))
     parser.add_argument("--storage", default=DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
     parser.add_argument("--study", default=DEFAULT_STUDY, help="name of the grid in the storage")
@@ -409,7 +409,10 @@ def main(argv: list[str] | None = None) -> int:
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
     warnings.filterwarnings("ignore", message="Heartbeat of storage is supposed to be used with Study.optimize")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    args = parse_args(argv)
+    try:
+        args = parse_args(argv)
+    except cli.UsageError as err:
+        return cli.fail(err)
     settings = {"envs": args.envs, "algos": args.algos, "tuned_seeds": args.seeds, "default_seeds": args.default_seeds,
                 "timesteps": args.timesteps, "eval_freq": args.eval_freq, "eval_episodes": args.eval_episodes,
                 "save_freq": args.save_freq, "episodes": EPISODES}
@@ -421,8 +424,7 @@ def main(argv: list[str] | None = None) -> int:
             return work(storage, study, args.runs_dir, args.max_cells, wait=not args.no_wait)
         study = optuna.load_study(storage=storage, study_name=args.study)
     except (ValueError, KeyError, RuntimeError, OperationalError) as err:
-        print(f"python -m agents.grid: error: {err}".splitlines()[0], file=sys.stderr)
-        return 2
+        return cli.fail(str(err).splitlines()[0])
     if args.command == "status":
         print(status_text(study))
     else:

@@ -41,6 +41,7 @@ from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecMonitor, VecNormalize
 
 import sail_env  # noqa: F401  (registers the env ids)
+from agents import cli
 from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, load_hyperparams, normalize_kwargs,
                         normalizer_path, one_thread_per_process, save_model, versions)
 from agents.vec_env import BatchedVecEnv
@@ -64,13 +65,6 @@ CONFIG_KEYS = frozenset({"algo", "env", "seed", "vec_env", "eval_freq", "eval_ep
 RUN_KEYS = frozenset({"n_envs", "n_timesteps", "normalize", "policy"})
 
 
-class OneLineParser(argparse.ArgumentParser):
-    """argparse that reports a bad argument as one line on stderr (exit code 2), no usage dump."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
 def positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -79,9 +73,8 @@ def positive_int(text: str) -> int:
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = OneLineParser(prog="train.py", description=__doc__.splitlines()[0],
-                           formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-                           epilog=f"env ids: {', '.join(TASKS)}")
+    parser = cli.Parser(prog="train.py", description=__doc__.splitlines()[0], formatter_class=cli.HelpFormatter,
+                        epilog=f"env ids: {', '.join(TASKS)}")
     parser.add_argument("--algo", choices=sorted(ALGOS), help="required unless --resume")
     parser.add_argument("--env", default="LightSail-v0", choices=list(TASKS), metavar="ID")
     parser.add_argument("-n", "--timesteps", type=positive_int, help="total training steps (overrides n_timesteps)")
@@ -147,7 +140,7 @@ def check_hyperparams(config: dict[str, Any]) -> None:
     try:
         normalize_kwargs(hp.get("normalize", False))
         algo_kwargs({k: v for k, v in hp.items() if k not in RUN_KEYS}, 1)
-    except (TypeError, ValueError, SyntaxError, NameError, AttributeError) as err:  # TODO-merge: parser raises ValueError
+    except ValueError as err:
         raise ValueError(f"{where}: {err}") from err
 
 
@@ -358,8 +351,8 @@ def header(config: dict[str, Any], run_dir: Path, resume: bool) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    args = parse_args(argv)
     try:
+        args = parse_args(argv)
         config = run_config(args)
         check_hyperparams(config)
         if args.resume is not None:
@@ -378,8 +371,7 @@ def main(argv: list[str] | None = None) -> int:
         session = train(config, run_dir, shlex.join(["python", "train.py", *argv]), resume=args.resume is not None,
                         progress_bar=not args.no_progress_bar)
     except (ModelLoadError, ValueError) as err:
-        print(f"train.py: error: {err}", file=sys.stderr)
-        return 2
+        return cli.fail(err)
     status = session["status"]
     print(f"{status}: {session['timesteps']:,} steps in {session['wall_time_s']:.0f} s -> {run_dir}")
     if status == "interrupted":
