@@ -88,7 +88,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                                                     "(default: agents/hyperparams/<algo>.yml)")
     parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its newest checkpoint")
     parser.add_argument("--eval-freq", type=int, default=10_000, help="evaluate every N steps (<= 0: never)")
-    parser.add_argument("--eval-episodes", type=positive_int, default=100)
+    parser.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes per evaluation")
     parser.add_argument("--save-freq", type=int, default=DEFAULT_SAVE_FREQ, help="checkpoint every N steps (<= 0: only at the end)")
     parser.add_argument("--no-progress-bar", action="store_true")
     args = parser.parse_args(argv)
@@ -246,6 +246,11 @@ class KeepBestBySuccess(BaseCallback):
 def read_run(run_dir: Path) -> dict[str, Any]:
     """A run's ``run.json``."""
     return json.loads((run_dir / "run.json").read_text())
+
+
+def read_best(run_dir: Path) -> dict[str, Any]:
+    """When and how well a run's best model was evaluated (``best_model.json``)."""
+    return json.loads((run_dir / "best_model.json").read_text())
 
 
 def write_run_json(run_dir: Path, config: dict[str, Any], sessions: list[dict[str, Any]]) -> None:

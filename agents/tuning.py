@@ -1,0 +1,160 @@
+"""Hyperparameter search for any algorithm and task: Optuna's TPE sampler and median pruner on
+the success rate of train.py's periodic evaluations, in the grid's storage.
+
+    python -m agents.tuning --algo sac --env LightSailDeepDish-v0 --trials 40
+    python train.py --algo sac --env LightSailDeepDish-v0 --config runs/tuning/<study>/best.yml
+
+Each trial is a train.py run (``runs/tuning/<study>/trial-<N>``) whose evaluations report the
+success rate to Optuna; a trial below the median of earlier trials at the same step is
+pruned. ``--trials`` counts finished trials over every worker: start the same command on more
+machines with ``--storage postgresql://…`` to search in parallel. The best trial is written as a
+Zoo-style YAML entry that ``train.py --config`` reads.
+
+Why not RL Baselines3 Zoo's ``--optimize``: it ranks trials by mean return through its own env
+wrappers; this task is judged by the success rate, measured on train.py's paired evaluation
+episodes with the batched env. The sampler, pruner and storage are Optuna's own.
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+import optuna
+import yaml
+from optuna.study import MaxTrialsCallback
+from optuna.trial import TrialState
+
+from agents import cli, grid, training
+from agents.sb3 import ALGOS, load_hyperparams
+from sail_env.tasks import TASKS
+
+ACTIVATIONS = {"tanh": "nn.Tanh", "relu": "nn.ReLU"}
+NET_ARCHS = {"small": [64, 64], "medium": [256, 256]}
+
+
+def sample_ppo(trial: optuna.Trial) -> dict[str, Any]:
+    """PPO's usual search space (as in the Zoo's), with 8 batched envs."""
+    n_steps = trial.suggest_categorical("n_steps", [64, 128, 256, 512, 1024])
+    log_std = trial.suggest_float("log_std_init", -3.0, 0.0)
+    return {"n_envs": 8, "n_steps": n_steps,
+            "batch_size": trial.suggest_categorical("batch_size", [64, 128, 256]),
+            "n_epochs": trial.suggest_categorical("n_epochs", [5, 10, 20]),
+            "learning_rate": trial.suggest_float("learning_rate", 1e-5, 3e-3, log=True),
+            "gamma": trial.suggest_categorical("gamma", [0.98, 0.99, 0.995, 0.999]),
+            "gae_lambda": trial.suggest_categorical("gae_lambda", [0.9, 0.95, 0.98]),
+            "clip_range": trial.suggest_categorical("clip_range", [0.1, 0.2, 0.3]),
+            "ent_coef": trial.suggest_float("ent_coef", 1e-8, 1e-2, log=True),
+            "normalize": True, "policy_kwargs": network(trial, f", log_std_init={log_std:.3f}")}
+
+
+def sample_off_policy(trial: optuna.Trial) -> dict[str, Any]:
+    """SAC's and TD3's shared search space (one env, normalised observations)."""
+    train_freq = trial.suggest_categorical("train_freq", [1, 4, 8, 16])
+    return {"n_envs": 1, "normalize": "dict(norm_obs=True, norm_reward=False)",
+            "learning_rate": trial.suggest_float("learning_rate", 1e-5, 3e-3, log=True),
+            "batch_size": trial.suggest_categorical("batch_size", [64, 128, 256, 512]),
+            "buffer_size": trial.suggest_categorical("buffer_size", [10_000, 100_000, 300_000]),
+            "learning_starts": trial.suggest_categorical("learning_starts", [100, 1000, 5000]),
+            "gamma": trial.suggest_categorical("gamma", [0.98, 0.99, 0.995, 0.999]),
+            "tau": trial.suggest_categorical("tau", [0.005, 0.01, 0.02, 0.05]),
+            "train_freq": train_freq, "gradient_steps": train_freq, "policy_kwargs": network(trial, "")}
+
+
+def sample_td3(trial: optuna.Trial) -> dict[str, Any]:
+    return {**sample_off_policy(trial), "noise_type": "normal",
+            "noise_std": trial.suggest_float("noise_std", 0.01, 0.5, log=True)}
+
+
+SAMPLERS = {"ppo": sample_ppo, "sac": sample_off_policy, "td3": sample_td3}
+
+
+def network(trial: optuna.Trial, extra: str) -> str:
+    """``policy_kwargs`` in the Zoo's string form, which train.py's YAML reader accepts."""
+    arch = NET_ARCHS[trial.suggest_categorical("net_arch", sorted(NET_ARCHS))]
+    activation = ACTIVATIONS[trial.suggest_categorical("activation_fn", sorted(ACTIVATIONS))]
+    return f"dict(net_arch={arch}, activation_fn={activation}{extra})"
+
+
+def trial_config(trial: optuna.Trial, algo: str, env_id: str, settings: dict[str, Any]) -> dict[str, Any]:
+    """train.py's configuration of one trial."""
+    hp = {"policy": "MlpPolicy", "n_timesteps": settings["timesteps"], **SAMPLERS[algo](trial)}
+    return {"algo": algo, "env": env_id, "seed": settings["seed"], "vec_env": "batched",
+            "eval_freq": settings["eval_freq"], "eval_episodes": settings["eval_episodes"],
+            "save_freq": settings["timesteps"], "hyperparams_file": f"(optuna trial {trial.number})",
+            "hyperparams": hp}
+
+
+def objective(algo: str, env_id: str, settings: dict[str, Any], runs_dir: Path):
+    """The objective: train one sampled configuration; its best evaluation success rate."""
+    def run(trial: optuna.Trial) -> float:
+        config = trial_config(trial, algo, env_id, settings)
+        trial.set_user_attr("hyperparams", config["hyperparams"])
+
+        def report(timesteps: int, success_rate: float) -> None:
+            trial.report(success_rate, timesteps)
+            if trial.should_prune():
+                raise optuna.TrialPruned(f"success {success_rate:.1%} at {timesteps} steps")
+
+        run_dir = runs_dir / f"trial-{trial.number}"
+        training.train(config, run_dir, f"python -m agents.tuning (trial {trial.number})", on_evaluation=report)
+        return training.read_best(run_dir)["success_rate"]
+    return run
+
+
+def best_yaml(study: optuna.Study, env_id: str) -> str:
+    """The best trial as a Zoo-style YAML entry for ``train.py --config``."""
+    best = study.best_trial
+    header = (f"# Best of {len(study.get_trials(states=(TrialState.COMPLETE,)))} trials of Optuna study "
+              f"{study.study_name!r}: trial {best.number}, success rate {best.value:.1%}\n")
+    return header + yaml.safe_dump({env_id: best.user_attrs["hyperparams"]}, sort_keys=False)
+
+
+def tune(algo: str, env_id: str, storage: str, study_name: str, trials: int, settings: dict[str, Any],
+         runs_dir: Path, pruner: optuna.pruners.BasePruner | None = None) -> optuna.Study:
+    """Run trials until the study has ``trials`` finished ones (over all workers)."""
+    study = optuna.create_study(storage=grid.open_storage(storage, heartbeat=60, grace=300), study_name=study_name,
+                                direction="maximize", load_if_exists=True,
+                                sampler=optuna.samplers.TPESampler(seed=settings["seed"], n_startup_trials=5),
+                                pruner=pruner or optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1))
+    finished = (TrialState.COMPLETE, TrialState.PRUNED)
+    study.optimize(objective(algo, env_id, settings, runs_dir), callbacks=[MaxTrialsCallback(trials, finished)],
+                   catch=(ValueError,))
+    return study
+
+
+def main(argv: list[str] | None = None) -> int:
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    parser = cli.Parser(prog="python -m agents.tuning", description=__doc__.splitlines()[0],
+                        formatter_class=cli.HelpFormatter)
+    parser.add_argument("--algo", required=True, choices=sorted(ALGOS))
+    parser.add_argument("--env", default="LightSail-v0", choices=list(TASKS), metavar="ID")
+    parser.add_argument("--trials", type=training.positive_int, default=40, help="finished trials, over all workers")
+    parser.add_argument("--timesteps", type=training.positive_int, help="budget of each trial (default: the shipped one)")
+    parser.add_argument("--evaluations", type=training.positive_int, default=10, help="evaluations (pruning points) per trial")
+    parser.add_argument("--eval-episodes", type=training.positive_int, default=50)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--storage", default=grid.DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
+    parser.add_argument("--study", help="study name (default: tune-<algo>-<env>)")
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs/tuning"))
+    try:
+        args = parser.parse_args(argv)
+    except cli.UsageError as err:
+        return cli.fail(err)
+    timesteps = args.timesteps or int(load_hyperparams(args.algo, args.env)["n_timesteps"])
+    settings = {"timesteps": timesteps, "eval_freq": max(timesteps // args.evaluations, 1),
+                "eval_episodes": args.eval_episodes, "seed": args.seed}
+    study_name = args.study or f"tune-{args.algo}-{args.env}"
+    optuna.logging.set_verbosity(optuna.logging.INFO)
+    study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings, args.runs_dir / study_name)
+    out = args.runs_dir / study_name / "best.yml"
+    out.write_text(best_yaml(study, args.env))
+    print(f"best: trial {study.best_trial.number}, success {study.best_value:.1%} -> {out}\n"
+          f"train it: python train.py --algo {args.algo} --env {args.env} --config {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,39 @@
+"""Hyperparameter search at a tiny budget: trials run, are pruned on the success rate, and the
+best trial is a YAML entry that train.py trains from."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import optuna
+import pytest
+import yaml
+from optuna.trial import TrialState
+
+from agents import training, tuning
+
+SETTINGS = {"timesteps": 256, "eval_freq": 128, "eval_episodes": 2, "seed": 0}
+
+
+@pytest.mark.parametrize("algo", ["ppo", "td3"])
+def test_the_best_trial_is_a_config_train_py_reads(algo: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    study = tuning.tune(algo, "LightSail-v0", "sqlite:///runs/grid.db", "t", 2, SETTINGS, tmp_path / "runs/t")
+    complete = study.get_trials(states=(TrialState.COMPLETE,))
+    assert len(complete) == 2
+    for trial in complete:  # the value is the best evaluation's success rate, as reported
+        assert trial.value == max(trial.intermediate_values.values())
+    (tmp_path / "best.yml").write_text(tuning.best_yaml(study, "LightSail-v0"))
+    entry = yaml.safe_load((tmp_path / "best.yml").read_text())["LightSail-v0"]
+    assert entry == study.best_trial.user_attrs["hyperparams"]
+    assert training.main(["--algo", algo, "--config", "best.yml", "--timesteps", "64", "--eval-freq", "0",
+                          "--no-progress-bar"]) == 0
+
+
+def test_a_trial_below_the_pruner_stops_at_its_first_evaluation(tmp_path: Path) -> None:
+    everything = optuna.pruners.ThresholdPruner(lower=1.5)  # no success rate reaches it
+    study = tuning.tune("ppo", "LightSail-v0", f"sqlite:///{tmp_path}/grid.db", "p", 1, SETTINGS, tmp_path / "runs",
+                        pruner=everything)
+    (trial,) = study.get_trials()
+    assert trial.state == TrialState.PRUNED and len(trial.intermediate_values) == 1
+    assert training.read_run(tmp_path / "runs/trial-0")["sessions"][0]["status"] == "stopped"
