@@ -18,7 +18,7 @@ accurate for a smooth periodic integrand). Where a hard edge crosses the rim the
 domain has corners, kinks in ``φ`` that would cost the trapezoidal rule its accuracy and,
 because they move with the pose, make the stiffnesses converge only linearly; there the
 angles at which each edge crosses the ellipse are found (sign changes on a grid refined
-by bisection) and ``φ`` is integrated by Gauss–Legendre between them
+by Newton's method) and ``φ`` is integrated by Gauss–Legendre between them
 (docs/physics.md §8 measures the convergence).
 
 Everything is batched over a leading axis of sails and vectorised over the nodes.
@@ -38,9 +38,10 @@ from sail_env.physics.rigid3d.geometry import SailGeometry
 
 #: φ segments of the hard-edged rule: 4 fixed ones plus up to 4 crossings per edge.
 ANGULAR_SEGMENTS = 12
-#: Grid on which edge crossings are first located, and bisection steps refining each.
+#: Grid on which edge crossings are first located, and Newton steps refining each
+#: (quadratic convergence from a bracket of 2π/256: round-off after four).
 CROSSING_GRID = 256
-BISECTIONS = 44
+NEWTON_STEPS = 5
 
 
 class RadiationModel:
@@ -139,24 +140,27 @@ class RadiationModel:
                 breaks.append(np.broadcast_to(2.0 * math.pi * (np.arange(4) + 0.25) / 4, (n, 4)))
                 continue
 
-            def excess(phi: np.ndarray, radius: np.ndarray = radius) -> np.ndarray:
+            def excess(phi: np.ndarray, radius: np.ndarray = radius) -> tuple[np.ndarray, np.ndarray]:
+                """``|g0 + r_e G e(φ)|² − 1`` and its derivative in ``φ``."""
                 e = np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+                de = np.stack([-np.sin(phi), np.cos(phi)], axis=-1)
                 point = g0[:, None, :] + radius[:, None, None] * np.einsum("nij,nkj->nki", inverse, e)
-                return np.sum(point * point, axis=-1) - 1.0
+                slope = radius[:, None, None] * np.einsum("nij,nkj->nki", inverse, de)
+                return np.sum(point * point, axis=-1) - 1.0, 2.0 * np.sum(point * slope, axis=-1)
 
-            sign = excess(np.broadcast_to(grid, (n, CROSSING_GRID))) > 0
+            sign = excess(np.broadcast_to(grid, (n, CROSSING_GRID)))[0] > 0
             change = sign != np.roll(sign, -1, axis=1)
             first = np.argsort(~change, axis=1, kind="stable")[:, :4]
             found = np.take_along_axis(change, first, axis=1) & (radius[:, None] > 0)
             lo = grid[first]
             hi = lo + 2.0 * math.pi / CROSSING_GRID
-            lo_positive = excess(lo) > 0
-            for _ in range(BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                same = (excess(mid) > 0) == lo_positive
-                lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+            crossing = 0.5 * (lo + hi)
+            for _ in range(NEWTON_STEPS):  # kept inside the bracket
+                value, slope = excess(crossing)
+                step = np.divide(value, slope, out=np.zeros_like(value), where=slope != 0)
+                crossing = np.clip(crossing - step, lo, hi)
             fallback = 2.0 * math.pi * (np.arange(4) + 0.25) / 4
-            breaks.append(np.where(found, 0.5 * (lo + hi), fallback))
+            breaks.append(np.where(found, crossing, fallback))
         points = np.sort(np.concatenate(breaks, axis=1) % (2.0 * math.pi), axis=1)
         lengths = np.diff(points, axis=1, append=points[:, :1] + 2.0 * math.pi)
         angles = points[..., None] + lengths[..., None] * self._segment_nodes
