@@ -79,3 +79,11 @@ def test_invalid_configuration_names_the_field(field, value):
 def test_reflectivity_and_absorptivity_cannot_exceed_one_together():
     with pytest.raises(ValueError, match="reflectivity \\+ absorptivity"):
         RigidSailConfig(absorptivity=0.1)
+
+
+def test_table_command_prints_the_three_tables(capsys):
+    from sail_env.physics.rigid3d import table
+
+    table.main()
+    out = capsys.readouterr().out
+    assert out.count("### ") == 3 and "| flat | inf | flat-top | 0 |" in out
