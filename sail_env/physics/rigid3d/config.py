@@ -48,16 +48,17 @@ class RigidSailConfig:
         beam_lobe_waist_m: Waist of each Gaussian of the ring; ``None``: half the aperture.
         beam_lobes: Number of Gaussians on the ring (Manchester & Loeb 2017 use four).
         radial_nodes: Gauss–Legendre nodes along each ray of the surface quadrature.
-        angular_nodes: Rays (equally spaced angles) of the surface quadrature.
+        angular_nodes: Rays of the surface quadrature (equally spaced for smooth beams; for
+            hard-edged beams Gauss–Legendre on 12 segments between the edges' corners).
     """
 
     shape: str = "dish"
-    aperture_radius_m: float = 2.0
-    curvature_radius_m: float = 10.0
-    com_distance_m: float = 10.0
-    strut_length_m: float = 20.0
-    sail_mass_kg: float = 0.5e-3
-    craft_mass_kg: float = 0.5e-3
+    aperture_radius_m: float = SEED.aperture_radius_m
+    curvature_radius_m: float = SEED.curvature_radius_m
+    com_distance_m: float = SEED.com_distance_m
+    strut_length_m: float = SEED.strut_length_m
+    sail_mass_kg: float = SEED.sail_mass_kg
+    craft_mass_kg: float = SEED.craft_mass_kg
     strut_mass_kg: float = 0.0
     reflectivity: float = 1.0
     absorptivity: float = 0.0
