@@ -57,6 +57,26 @@ def time_to_beta(beta: float, power_w: float, mass_kg: float, law: Law = "dopple
     raise ValueError(f"law must be one of {LAWS}, got {law!r}")
 
 
+def doppler_push_factor(beta: np.ndarray | float) -> np.ndarray | float:
+    """``(1 − β)/(1 + β)``: the push on a receding mirror relative to one at rest (lab frame).
+
+    Photons arrive less often and return redshifted; every radiation force on the sail,
+    lateral stiffnesses included, scales with it (to leading order in the sail's own
+    lateral and rotational speeds).
+    """
+    return (1.0 - beta) / (1.0 + beta)
+
+
+def diffraction_scale(distance_m: np.ndarray | float, diffraction_length_m: float) -> np.ndarray | float:
+    """How much wider the beam spot is at ``distance_m`` than at ``L0``: ``max(1, D/L0)``.
+
+    Beyond ``L0`` the diffraction-limited spot grows as ``D/L0`` and, its power
+    conserved, its intensity falls as ``(L0/D)²``: the power a sail smaller than the
+    spot catches falls as ``(L0/D)²`` (Kulkarni, Lubin & Zhang 2018).
+    """
+    return np.maximum(1.0, np.asarray(distance_m, dtype=float) / diffraction_length_m)
+
+
 def beta_history(times: np.ndarray, power_w: float, mass_kg: float, law: Law = "doppler",
                  reflectance: float = 1.0, diffraction_length_m: float = math.inf) -> np.ndarray:
     """β at each lab time in ``times`` (ascending, from 0), by numerical integration.
@@ -73,10 +93,10 @@ def beta_history(times: np.ndarray, power_w: float, mass_kg: float, law: Law = "
 
     def rhs(_t: float, y: np.ndarray) -> list[float]:
         beta, distance = min(y[0], 1.0 - 1e-15), y[1]
-        power_share = min(1.0, (diffraction_length_m / distance) ** 2) if distance > 0 else 1.0
+        power_share = float(diffraction_scale(distance, diffraction_length_m)) ** -2
         kk = k * power_share
         if law == "doppler":
-            dbeta = kk * (1 - beta) / (1 + beta) * (1 - beta**2) ** 1.5
+            dbeta = kk * doppler_push_factor(beta) * (1 - beta**2) ** 1.5
         elif law == "no_doppler":
             dbeta = kk * (1 - beta**2) ** 1.5
         elif law == "seed_eq7":
