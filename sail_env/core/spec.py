@@ -57,18 +57,24 @@ class Disturbances:
 
     Attributes:
         sensor_noise_std: Standard deviation of the measurement of each state component
-            ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``, white, per observation.
+            ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``, white, per observation (any finite size:
+            the observation saturates at ±1e3).
         beam_jitter_m: Standard deviation of the beam's landing offset per control step
             (white, held for the step); over the coast the same spectral density
-            ``σ² dt`` acts as continuous white noise.
+            ``σ² dt`` acts as continuous white noise. At most the aperture radius.
         push_noise: Relative standard deviation of the push ``F`` per control step; the
-            same spectral density acts over the coast.
+            same spectral density acts over the coast. At most :data:`MAX_PUSH_NOISE`.
         cutoff_jitter_s: Half-width of a uniform draw of the beam cut-off time around
-            its nominal value; a few ms already randomise the oscillation's phase.
+            its nominal value; a few ms already randomise the oscillation's phase. The
+            earliest cut-off must come after the last command has arrived.
         light_delay: Delay observations and commands by the light travel time
-            ``D(t)/c`` each way, rounded to whole control steps.
+            ``D(t)/c`` each way, rounded to whole control steps (a bool). The round trip at
+            the end of the window must not exceed the window.
         parameter_spread: Relative half-width of a uniform per-episode draw of each mass,
-            the strut and CoM lengths and the radius of curvature.
+            the strut and CoM lengths and the radius of curvature, in ``[0, 0.5)``; every
+            draw must be a valid :class:`SailConfig` (checked at the corners of the box).
+
+    Numbers may be ints, floats or NumPy real scalars; bools and strings are refused.
     """
 
     sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
