@@ -10,8 +10,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from sail_env.core.delay import delay_steps
-from sail_env.physics.config import PRESETS, SailConfig
-from sail_env.physics.plant import PlanarPlant
+from sail_env.physics.config import PRESETS, SailConfig, check_below_light_speed, real_number
+from sail_env.physics.mission import one_way_light_delay_s
+from sail_env.physics.planar import STATE_NAMES
+from sail_env.physics.plant import MAX_TILT_RAD, PlanarPlant
 
 #: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
 DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
@@ -20,6 +22,33 @@ POSITION_SCALE_M = 1e-2
 TILT_SCALE_RAD = 1e-3
 #: Round-off allowed between times computed as ``start + steps · dt`` and configured times.
 TIME_TOLERANCE_S = 1e-9
+#: Largest relative push noise per step: a laser cannot pull, and beyond 0.25 a 4σ step would
+#: reverse the push (the per-step expansion in the push error, docs/physics.md §4, also loses
+#: its accuracy there).
+MAX_PUSH_NOISE = 0.25
+#: Largest ``parameter_spread`` (exclusive): a factor ``1 − s`` must leave every length and mass positive.
+MAX_PARAMETER_SPREAD = 0.5
+
+
+def four_finite_nonnegative(values: object, name: str) -> tuple[float, float, float, float]:
+    """Four finite real numbers ``>= 0`` (one per state component ``X, Vx, θ, ω``), or ``ValueError``."""
+    items = list(values) if isinstance(values, (Sequence, np.ndarray)) and not isinstance(values, str) else None
+    if items is None or len(items) != 4:
+        raise ValueError(f"{name} must be 4 real numbers (X, Vx, θ, ω), got {values!r}")
+    numbers = tuple(real_number(v, f"{name}[{i}]") for i, v in enumerate(items))
+    if not all(math.isfinite(v) and v >= 0 for v in numbers):
+        raise ValueError(f"{name} must be 4 finite values >= 0, got {numbers}")
+    return numbers
+
+
+def _resolve_config(config: object) -> SailConfig:
+    """A :class:`SailConfig` from the ``config`` argument: one, or a preset's name."""
+    if isinstance(config, SailConfig):
+        return config
+    if isinstance(config, str) and config in PRESETS:
+        return PRESETS[config]
+    raise ValueError(f"config must be a SailConfig or one of {sorted(PRESETS)}, got {config!r} "
+                     f"(SailConfig(**fields) builds one from a dict)")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -28,18 +57,24 @@ class Disturbances:
 
     Attributes:
         sensor_noise_std: Standard deviation of the measurement of each state component
-            ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``, white, per observation.
+            ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``, white, per observation (any finite size:
+            the observation saturates at ±1e3).
         beam_jitter_m: Standard deviation of the beam's landing offset per control step
             (white, held for the step); over the coast the same spectral density
-            ``σ² dt`` acts as continuous white noise.
+            ``σ² dt`` acts as continuous white noise. At most the aperture radius.
         push_noise: Relative standard deviation of the push ``F`` per control step; the
-            same spectral density acts over the coast.
+            same spectral density acts over the coast. At most :data:`MAX_PUSH_NOISE`.
         cutoff_jitter_s: Half-width of a uniform draw of the beam cut-off time around
-            its nominal value; a few ms already randomise the oscillation's phase.
+            its nominal value; a few ms already randomise the oscillation's phase. The
+            earliest cut-off must come after the last command has arrived.
         light_delay: Delay observations and commands by the light travel time
-            ``D(t)/c`` each way, rounded to whole control steps.
+            ``D(t)/c`` each way, rounded to whole control steps (a bool). The round trip at
+            the end of the window must not exceed the window.
         parameter_spread: Relative half-width of a uniform per-episode draw of each mass,
-            the strut and CoM lengths and the radius of curvature.
+            the strut and CoM lengths and the radius of curvature, in ``[0, 0.5)``; every
+            draw must be a valid :class:`SailConfig` (checked at the corners of the box).
+
+    Numbers may be ints, floats or NumPy real scalars; bools and strings are refused.
     """
 
     sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
@@ -50,17 +85,20 @@ class Disturbances:
     parameter_spread: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "sensor_noise_std", tuple(float(s) for s in self.sensor_noise_std))
-        if len(self.sensor_noise_std) != 4 or not all(
-                math.isfinite(s) and s >= 0 for s in self.sensor_noise_std):
-            raise ValueError(
-                f"sensor_noise_std must be 4 finite values >= 0, got {self.sensor_noise_std}")
-        for name in ("beam_jitter_m", "push_noise", "cutoff_jitter_s"):
-            value = getattr(self, name)
+        object.__setattr__(self, "sensor_noise_std", four_finite_nonnegative(self.sensor_noise_std, "sensor_noise_std"))
+        for name in ("beam_jitter_m", "push_noise", "cutoff_jitter_s", "parameter_spread"):
+            value = real_number(getattr(self, name), name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {value}")
-        if not 0 <= self.parameter_spread < 0.5:
-            raise ValueError(f"parameter_spread must be in [0, 0.5), got {self.parameter_spread}")
+            object.__setattr__(self, name, value)
+        if not isinstance(self.light_delay, (bool, np.bool_)):
+            raise ValueError(f"light_delay must be True or False, got {self.light_delay!r}")
+        object.__setattr__(self, "light_delay", bool(self.light_delay))
+        if self.push_noise > MAX_PUSH_NOISE:
+            raise ValueError(f"push_noise must be <= {MAX_PUSH_NOISE} (a 4σ step would reverse the push), "
+                             f"got {self.push_noise}")
+        if not self.parameter_spread < MAX_PARAMETER_SPREAD:
+            raise ValueError(f"parameter_spread must be in [0, {MAX_PARAMETER_SPREAD}), got {self.parameter_spread}")
 
     @property
     def any_sensor_noise(self) -> bool:
@@ -89,16 +127,13 @@ class EpisodeSpec:
                  max_beam_tilt_rad: float = 2e-3,
                  start_half_widths: Sequence[float] = DEFAULT_START_HALF_WIDTHS,
                  disturbances: Disturbances = Disturbances()) -> None:
-        if isinstance(config, str):
-            if config not in PRESETS:
-                raise ValueError(f"config must be a SailConfig or one of {sorted(PRESETS)}, got {config!r}")
-            config = PRESETS[config]
-        for name, value in (("max_beam_offset_m", max_beam_offset_m), ("max_beam_tilt_rad", max_beam_tilt_rad)):
+        config = _resolve_config(config)
+        scales = [real_number(v, name) for name, v in (("max_beam_offset_m", max_beam_offset_m),
+                                                      ("max_beam_tilt_rad", max_beam_tilt_rad))]
+        for name, value in zip(("max_beam_offset_m", "max_beam_tilt_rad"), scales):
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
-        widths = tuple(float(w) for w in start_half_widths)
-        if len(widths) != 4 or not all(math.isfinite(w) and w >= 0 for w in widths):
-            raise ValueError(f"start_half_widths must be 4 finite values >= 0, got {widths}")
+        widths = four_finite_nonnegative(start_half_widths, "start_half_widths")
         self.config = config
         self.disturbances = disturbances
         self.plant = PlanarPlant(config, disturbances.parameter_spread, disturbances.beam_jitter_m,
@@ -106,19 +141,51 @@ class EpisodeSpec:
         self.nominal = self.plant.nominal
         self.dt = config.control_step_s
         self.n_steps = config.control_steps
-        self.action_scale = np.array([max_beam_offset_m, max_beam_tilt_rad])
+        self.action_scale = np.array(scales)
         self.start_half_widths = np.array(widths)
         self.sensor_noise_std = np.array(disturbances.sensor_noise_std)
         rate = self.plant.rate_scale()
         self.state_scale = np.array([POSITION_SCALE_M, POSITION_SCALE_M * rate, TILT_SCALE_RAD, TILT_SCALE_RAD * rate])
+        spread = disturbances.parameter_spread
+        fastest = config.axial_acceleration_m_s2 / (1 - spread)
+        check_below_light_speed(fastest, config.beam_cutoff_s + disturbances.cutoff_jitter_s,
+                                "push_force_n and beam_cutoff_s (fastest draw of parameter_spread, latest of "
+                                "cutoff_jitter_s)")
         if disturbances.light_delay:
+            self._check_round_trip(fastest)
             self.history_length = 2 * (int(self.delay_steps(self.n_steps)) + 1)
-            fastest = config.axial_acceleration_m_s2 / (1 - disturbances.parameter_spread)
             self.max_delay = int(delay_steps(fastest, config.control_start_s, self.dt,
                                              self.n_steps + self.history_length)) + 1
         else:
             self.history_length = self.max_delay = 0
         self._check_cutoff()
+        # Inside the beam and the small-angle regime for every draw, and not leaving them by its own speed in one step.
+        tilt = min(config.aperture_radius_m / (config.com_distance_m * (1 + spread)), MAX_TILT_RAD)
+        self.start_limits = np.array([config.aperture_radius_m, config.aperture_radius_m / self.dt, tilt,
+                                      tilt / self.dt])
+        self.check_start(self.start_half_widths, "start_half_widths")
+
+    def _check_round_trip(self, fastest_m_s2: float) -> None:
+        """The light's round trip at the end of the window must not outlast the window: else no
+        observation could show most commands' effects, and the observation, which lists the
+        commands in flight, would be longer than the episode."""
+        end = self.config.control_start_s + self.n_steps * self.dt
+        round_trip = 2 * one_way_light_delay_s(fastest_m_s2, end) / self.dt
+        if not round_trip <= self.n_steps:
+            raise ValueError(
+                f"light_delay: the round trip 2 D/c at the end of the control window ({end:.6g} s) is "
+                f"{round_trip:.6g} steps, more than the window's {self.n_steps} steps; start control earlier "
+                f"(control_start_s) or lengthen control_window_s")
+
+    def check_start(self, states: np.ndarray, name: str) -> None:
+        """Refuse start states (..., 4) beyond :attr:`start_limits`, naming ``name`` and the limit."""
+        beyond = np.abs(np.asarray(states)) > self.start_limits
+        if beyond.any():
+            k = int(np.flatnonzero(beyond.reshape(-1, 4).any(axis=0))[0])
+            raise ValueError(
+                f"{name}: |{STATE_NAMES[k]}| must be <= {self.start_limits[k]:.4g} (inside the beam and the "
+                f"small-angle regime, and not leaving them within one step), got "
+                f"{np.abs(np.asarray(states)).reshape(-1, 4)[:, k].max():.4g}")
 
     def _check_cutoff(self) -> None:
         """The earliest cut-off must come after the last command has reached the sail (to within

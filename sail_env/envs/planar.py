@@ -12,7 +12,7 @@ from gymnasium import spaces
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
 from sail_env.envs.rendering import SailRenderer
-from sail_env.physics.config import SailConfig
+from sail_env.physics.config import SailConfig, real_number
 from sail_env.physics.planar import STATE_NAMES
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
@@ -86,7 +86,9 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     At launch, uniform in ``X ∈ ±5 mm, Vx ∈ ±0.1 m/s, θ ∈ ±2 mrad, ω ∈ ±10 µrad/s``
     (``start_half_widths``; the deep-dish tasks use ±3 cm and ±0.6 m/s laterally, see
     ``sail_env.tasks``); ``reset(options={"initial_state": {...}})`` sets it instead
-    (missing keys are zero). With ``control_start_s > 0`` the state is propagated, with
+    (missing keys are zero; it must lie inside ``episode_spec.start_limits``, as must
+    ``start_half_widths``: ``|X|`` within the aperture, ``|θ|`` within the small-angle regime
+    and the beam, and speeds that do not leave them within one step). With ``control_start_s > 0`` the state is propagated, with
     the disturbances, from launch to the start of control. At the seed sail, a tilt θ
     moves the equilibrium to ``X = θ (2R − Lc)`` = 2 cm per 2 mrad, so the passive sail
     fails on about 40 % of these starts.
@@ -155,7 +157,10 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         initial = (options or {}).get("initial_state")
-        self.core.reset(_ONE, [self.np_random], None if initial is None else initial_state(initial)[None])
+        if initial is not None:
+            initial = initial_state(initial)[None]
+            self.episode_spec.check_start(initial, "initial_state")
+        self.core.reset(_ONE, [self.np_random], initial)
         if self.render_mode is not None:
             self._trajectory = [(self._time(), self.core.x[0].copy(), np.zeros(2))]
         return self.core.observe()[0], self._info()
@@ -211,11 +216,13 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
 
 def initial_state(given: Mapping[str, float]) -> np.ndarray:
-    """The launch state from ``options["initial_state"]`` (missing keys are zero)."""
+    """The launch state from ``options["initial_state"]``: a dict of real numbers (missing keys are zero)."""
+    if not isinstance(given, Mapping):
+        raise ValueError(f"initial_state must be a dict with keys among {STATE_NAMES}, got {given!r}")
     unknown = set(given) - set(STATE_NAMES)
     if unknown:
         raise ValueError(f"initial_state keys must be among {STATE_NAMES}, got {sorted(unknown)}")
-    state = np.array([float(given.get(name, 0.0)) for name in STATE_NAMES])
+    state = np.array([real_number(given.get(name, 0.0), f"initial_state[{name!r}]") for name in STATE_NAMES])
     if not np.all(np.isfinite(state)):
         raise ValueError(f"initial_state must be finite, got {dict(given)}")
     return state

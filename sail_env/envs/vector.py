@@ -96,9 +96,13 @@ class LightSailVectorEnv(VectorEnv):
         if isinstance(given, Mapping):
             given = np.tile(initial_state(given), (self.num_envs, 1))
         elif given is not None:
-            given = np.asarray(given, dtype=np.float64)
-            if given.shape != (self.num_envs, 4) or not np.all(np.isfinite(given)):
-                raise ValueError(f"initial_state must be a dict or a finite array of shape ({self.num_envs}, 4)")
+            given = np.asarray(given)
+            if given.shape != (self.num_envs, 4) or given.dtype.kind not in "fiu" or not np.all(np.isfinite(given)):
+                raise ValueError(f"initial_state must be a dict or a finite real array of shape ({self.num_envs}, 4), "
+                                 f"got {given.dtype} {given.shape}")
+            given = given.astype(np.float64)
+        if given is not None:
+            self.episode_spec.check_start(given, "initial_state")
         self.core.reset(self._all, self._rngs, given)
         return self.core.observe(), {}
 

@@ -11,8 +11,33 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 from sail_env.physics.constants import SPEED_OF_LIGHT
+
+#: Most control steps in a window. The episode core draws every normal an episode's window
+#: can need at reset (a few per step), so the window's length is memory per environment;
+#: 10⁵ steps (500 s at 5 ms) keeps that to a few MB and covers any controllable window.
+MAX_CONTROL_STEPS = 100_000
+
+
+def real_number(value: object, name: str) -> float:
+    """``value`` as a float if it is a real number: an int, a float or a NumPy real scalar such as
+    ``np.float32(1.0)``; a bool, a string or an array raises ``ValueError`` naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    return float(value)
+
+
+def check_below_light_speed(acceleration_m_s2: float, t: float, what: str) -> None:
+    """The planar model is Newtonian (``Vz = a t``): refuse a push that would pass the speed of light
+    by ``t`` (naming ``what`` sets the limit)."""
+    speed = acceleration_m_s2 * t
+    if not speed < SPEED_OF_LIGHT:
+        raise ValueError(
+            f"{what}: the Newtonian axial speed a t = {acceleration_m_s2:.4g} m/s² x {t:.4g} s = {speed:.4g} m/s "
+            f"at cut-off must stay below the speed of light ({SPEED_OF_LIGHT:.6g} m/s); lower push_force_n or "
+            f"beam_cutoff_s")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,9 +73,8 @@ class SailConfig:
 
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"{field.name} must be a real number, got {value!r}")
+            value = real_number(getattr(self, field.name), field.name)
+            object.__setattr__(self, field.name, value)  # NumPy scalars and ints stored as float
             if math.isnan(value):
                 raise ValueError(f"{field.name} must not be NaN")
             if math.isinf(value) and field.name != "curvature_radius_m":
@@ -85,6 +109,13 @@ class SailConfig:
                 "control_start_s + control_window_s must be <= beam_cutoff_s "
                 f"({self.beam_cutoff_s} s), got {control_end}"
             )
+        steps = self.control_window_s / self.control_step_s  # may overflow to inf: compared before rounding
+        if not steps <= MAX_CONTROL_STEPS:
+            raise ValueError(
+                f"control_window_s / control_step_s must be <= {MAX_CONTROL_STEPS} steps, got "
+                f"{self.control_window_s} / {self.control_step_s} = {steps:.6g}"
+            )
+        check_below_light_speed(self.axial_acceleration_m_s2, self.beam_cutoff_s, "push_force_n and beam_cutoff_s")
 
     @property
     def total_mass_kg(self) -> float:

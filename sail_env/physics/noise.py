@@ -78,6 +78,15 @@ def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Wh
     return gen
 
 
+def moment_growth_rate(a: np.ndarray, b: np.ndarray, noise: WhiteNoise) -> np.ndarray:
+    """Growth rate [1/s] of the state's spread under the noise, batched like ``a`` (..., 4, 4): half
+    the largest real part of the moment generator's eigenvalues. Multiplicative push noise makes
+    the second moment grow even where the noise-free sail only oscillates (parametric excitation),
+    so a long noisy propagation must be split by this rate, not the noise-free one."""
+    generator = moment_generator(a, b, np.zeros((*a.shape[:-2], 2)), noise)
+    return 0.5 * np.linalg.eigvals(generator).real.max(axis=-1)
+
+
 def _kron(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``np.kron`` over the last two axes, batched over the leading ones."""
     out = x[..., :, None, :, None] * y[..., None, :, None, :]

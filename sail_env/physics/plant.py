@@ -19,7 +19,8 @@ import scipy.linalg
 
 from sail_env.physics.config import SailConfig, moment_of_inertia
 from sail_env.physics.linear import push_expansion, sample_gaussian, sample_uniform, zoh_discretize
-from sail_env.physics.noise import WhiteNoise, mean_and_covariance, moment_generator, second_moment
+from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_growth_rate,
+                                    second_moment)
 from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
                                      rates, system_matrices)
 from sail_env.physics.pointing import envelope_table, peak_speed
@@ -43,7 +44,7 @@ class PlantParams:
     envelope: np.ndarray  # (·, S, 6) look-ahead table of |Vx| (pointing.envelope_table)
     acceleration: np.ndarray  # (·,) axial acceleration F/m [m/s²]
     limits: np.ndarray  # (·, 2) largest |X| [m] and |θ| [rad] inside the beam and the small-angle regime
-    growth: np.ndarray  # (·,) largest growth rate [1/s]
+    growth: np.ndarray  # (·,) largest growth rate [1/s] of the state (with noise: of its spread, if faster)
     shared: bool
 
     def take(self, index: np.ndarray) -> PlantParams:
@@ -77,8 +78,12 @@ class PlanarPlant:
         config: The nominal configuration.
         parameter_spread: Relative half-width of a uniform per-episode draw of each of
             :data:`SPREAD_FIELDS`.
-        beam_jitter_m: Standard deviation of the beam's landing offset per control step.
+        beam_jitter_m: Standard deviation of the beam's landing offset per control step, at most
+            the aperture radius (the linear model assumes the beam lands on the sail).
         push_noise: Relative standard deviation of the push per control step.
+
+    Raises ``ValueError`` for a spread that could draw an invalid configuration or a jitter
+    wider than the aperture.
     """
 
     state_names = STATE_NAMES
@@ -92,9 +97,12 @@ class PlanarPlant:
         self.beam_jitter_m = beam_jitter_m
         self.push_noise = push_noise
         self.dt = config.control_step_s
+        self._check_spread_box()
+        if beam_jitter_m > config.aperture_radius_m:
+            raise ValueError(f"beam_jitter_m must be <= aperture_radius_m ({config.aperture_radius_m} m): the "
+                             f"beam must land on the sail, got {beam_jitter_m}")
         self.white_noise = WhiteNoise.from_step_std(beam_jitter_m, push_noise, self.dt)
         self.noisy = bool(beam_jitter_m or push_noise)
-        self._check_spread_box()
         self._shared = None if parameter_spread else self._build(np.ones((1, len(SPREAD_FIELDS))), shared=True)
 
     @property
@@ -139,6 +147,8 @@ class PlanarPlant:
             coeffs = np.concatenate([phi, gamma], axis=-1)[:, None]
         step = coeffs.reshape(len(factors), -1, 6)
         growth, _ = rates(a)
+        if self.noisy:
+            growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise))
         # |Lc θ| ≤ a and |θ| ≤ MAX_TILT_RAD in one bound on |θ|.
         limits = np.stack([np.full(len(lc), c.aperture_radius_m), np.minimum(c.aperture_radius_m / lc, MAX_TILT_RAD)], 1)
         return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), limits, growth, shared)
@@ -172,7 +182,8 @@ class PlanarPlant:
         return np.abs(x[:, VX]) / self.speed(p, t)
 
     def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
-        """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
+        """How many pieces :meth:`coast` splits each propagation into (one unless the sail, or with
+        noise its spread, grows by more than ``e^GROWTH_PER_PIECE``)."""
         return np.maximum(1, np.ceil(duration * p.growth / GROWTH_PER_PIECE).astype(np.int64))
 
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,

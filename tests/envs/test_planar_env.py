@@ -156,20 +156,19 @@ def test_light_delay_lags_observation_and_command():
     for k in range(lag, 21):
         shown = spec.observation_to_state(observations[k])
         np.testing.assert_allclose(shown, list(states[k - lag].values()), rtol=1e-5)
-    # The commands sent are in the observation, newest first.
-    np.testing.assert_allclose(observations[5][5:9], [1.0, 0.0, 1.0, 0.0])
-    assert spec.history_length >= 2 * spec.delay_steps(spec.n_steps)
+    # The command history (newest first, distinct commands) and its length: tests/envs/test_disturbances.py.
 
 
-def test_disturbances_change_the_outcome_but_stay_finite():
-    quiet = gym.make("LightSailDeepDish-v0")
-    noisy = gym.make("LightSailDeepDish-v0", beam_jitter_m=1e-5, push_noise=0.01, cutoff_jitter_s=3.0,
-                     parameter_spread=0.1, sensor_noise_std=(1e-4, 1e-2, 1e-5, 1e-3))
-    a = _run(quiet, seed=7)[2][-1]
-    b = _run(noisy, seed=7)[2][-1]
-    assert a["terminal_pointing_rad"] != b["terminal_pointing_rad"]
-    assert abs(b["cutoff_s"] - 600.0) <= 3.0 and a["cutoff_s"] == 600.0
-    assert np.isfinite(b["terminal_pointing_rad"])
+@pytest.mark.parametrize("disturbance", [{"beam_jitter_m": 1e-5}, {"push_noise": 0.01}, {"cutoff_jitter_s": 3.0},
+                                         {"parameter_spread": 0.1}, {"sensor_noise_std": (1e-4, 1e-2, 1e-5, 1e-3)}])
+def test_each_disturbance_alone_changes_the_episode_but_stays_finite(disturbance):
+    """Each disturbance acts on its own (their sizes and where they act: tests/envs/test_disturbances.py)."""
+    quiet = _run(gym.make("LightSailDeepDish-v0"), seed=7)
+    noisy = _run(gym.make("LightSailDeepDish-v0", **disturbance), seed=7)
+    a, b = quiet[2][-1], noisy[2][-1]
+    assert not np.array_equal(quiet[0], noisy[0]) or a["terminal_pointing_rad"] != b["terminal_pointing_rad"]
+    assert np.all(np.isfinite(noisy[0])) and np.isfinite(b["terminal_pointing_rad"])
+    assert abs(b["cutoff_s"] - 600.0) <= disturbance.get("cutoff_jitter_s", 0.0)
 
 
 def test_render_rgb_array():

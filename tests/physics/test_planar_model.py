@@ -53,6 +53,17 @@ def test_deep_dish_has_two_undamped_oscillations():
     stability = PlanarModel(DEEP_DISH).stability
     assert stability.kind is StabilityKind.OSCILLATION
     assert len(stability.frequencies) == 2
+    # Independent: the stiffness of the seed equations (docs/physics.md §1) for q = (X, θ), by hand,
+    # F = 100 N, m = 1 g, R = 4 m, Lc = 10 m, I = 0.1 kg m²: K = [[12500, 25000], [750, 7500]],
+    # ω² = (tr ± √(tr² − 4 det))/2 = (20000 ± 10000)/2.
+    f, m, r, lc, inertia = 100.0, 1e-3, 4.0, 10.0, 0.1
+    k = np.array([[f / (2 * m * r), -f / m + f * lc / (2 * m * r)],
+                  [f * (lc / r - 1) / (2 * inertia), f * (lc / r - 1) * lc / (2 * inertia)]])
+    trace, det = np.trace(k), k[0, 0] * k[1, 1] - k[0, 1] * k[1, 0]
+    omegas = np.sqrt([(trace - math.sqrt(trace**2 - 4 * det)) / 2, (trace + math.sqrt(trace**2 - 4 * det)) / 2])
+    np.testing.assert_allclose(omegas, [math.sqrt(5000), math.sqrt(15000)], rtol=1e-15)
+    assert omegas == pytest.approx([70.7, 122.5], abs=0.05)
+    np.testing.assert_allclose(stability.frequencies, omegas, rtol=1e-12)
     np.testing.assert_allclose(sorted(np.abs(np.linalg.eigvals(PlanarModel(DEEP_DISH).A).imag))[::2],
                                stability.frequencies, rtol=1e-9)
 
@@ -80,9 +91,17 @@ def test_tilt_is_uncontrollable_when_lc_equals_r():
 
 
 def test_beam_offset_and_tilt_act_through_the_landing_point():
+    """Each column of B against the seed equations written out (tests/conftest.py): a unit offset and
+    a unit tilt; the tilt's column is Lc times the offset's (docs/physics.md §1)."""
     model = PlanarModel(DEEP_DISH)
     lc = DEEP_DISH.com_distance_m
-    np.testing.assert_allclose(model.B[:, 1], lc * model.B[:, 0], rtol=1e-14)
+    state = np.array([1e-3, 0.0, 2e-4, 0.0])
+    for column, beam in enumerate(([1.0, 0.0], [0.0, 1.0])):
+        seed_column = seed_rhs(DEEP_DISH, state, np.array(beam)) - seed_rhs(DEEP_DISH, state)
+        np.testing.assert_allclose(model.B[:, column], seed_column, rtol=1e-12)
+    # By hand: F/(2 m R) = 12,500 and F (Lc/R − 1)/(2 I) = 750 per metre of offset.
+    np.testing.assert_allclose(model.B[:, 0], [0, 12_500, 0, 750], rtol=1e-12)
+    np.testing.assert_allclose(model.B[:, 1], [0, 12_500 * lc, 0, 750 * lc], rtol=1e-12)
     assert np.linalg.matrix_rank(model.B) == 1
 
 
@@ -129,6 +148,7 @@ configs = st.builds(
     sail_mass_kg=st.floats(1e-5, 1e-2),
     craft_mass_kg=st.floats(1e-5, 1e-2),
     push_force_n=st.floats(1.0, 1e3),
+    beam_cutoff_s=st.just(1.0),  # up to 5e7 m/s² would pass the speed of light in 600 s
 )
 
 

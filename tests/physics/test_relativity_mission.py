@@ -2,6 +2,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.integrate
 
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.mission import (
@@ -39,6 +40,43 @@ def test_doppler_law_is_tens_of_percent_slower_to_0_2c():
     assert no_doppler == pytest.approx(0.2 / math.sqrt(0.96) * MASS * SPEED_OF_LIGHT**2 / (2 * POWER))
     assert 0.15 < doppler / no_doppler - 1 < 0.35
     assert doppler == pytest.approx(226.4, abs=0.5)
+
+
+def test_doppler_law_in_momentum_form_against_kulkarni_form_and_closed_form():
+    """Three forms of one law: d(γβ)/dt = k (1−β)/(1+β) integrated here in the momentum u = γβ;
+    Kulkarni, Lubin & Zhang 2018's dβ/dt = k (1−β)(1−β²)^{3/2}/(1+β) (beta_history); and the
+    closed form t(β) derived in docs/physics.md §5 (time_to_beta)."""
+    k = 2 * POWER / (MASS * SPEED_OF_LIGHT**2)
+
+    def momentum_rhs(_t, u):
+        beta = u[0] / math.sqrt(1 + u[0] ** 2)
+        return [k * (1 - beta) / (1 + beta)]
+
+    times = np.linspace(0.0, 600.0, 7)
+    sol = scipy.integrate.solve_ivp(momentum_rhs, (0, 600.0), [0.0], t_eval=times, method="DOP853",
+                                    rtol=1e-12, atol=1e-15)
+    beta_momentum = sol.y[0] / np.sqrt(1 + sol.y[0] ** 2)
+    np.testing.assert_allclose(beta_history(times, POWER, MASS), beta_momentum, rtol=1e-8, atol=1e-14)
+    for t, beta in zip(times[1:], beta_momentum[1:]):
+        assert time_to_beta(beta, POWER, MASS) == pytest.approx(t, rel=1e-8)
+    # The closed form's derivative is Kulkarni's rate, inverted.
+    for beta in (0.01, 0.2, 0.6):
+        h = 1e-6
+        slope = (time_to_beta(beta + h, POWER, MASS) - time_to_beta(beta - h, POWER, MASS)) / (2 * h)
+        assert 1 / slope == pytest.approx(k * (1 - beta) * (1 - beta**2) ** 1.5 / (1 + beta), rel=1e-7)
+
+
+def test_diffraction_falloff_is_inverse_square():
+    """Newtonian limit: beyond L0 the push falls as (L0/L)², so ½v² = ½v0² + a L0²(1/L0 − 1/L) (an
+    inverted gravity well) and the speed tends to √2 times the speed v0 at L0; an (L0/L)¹ falloff
+    would grow without bound as √(1 + ln(L/L0))."""
+    power, l0 = 1e3, 1e6  # β ~ 1e-7: relativity is far below the tolerance
+    accel = 2 * power / (MASS * SPEED_OF_LIGHT)
+    t0 = math.sqrt(2 * l0 / accel)  # reaches L0 at constant acceleration
+    beta = beta_history(np.array([0.0, t0, 2000 * t0]), power, MASS, diffraction_length_m=l0)
+    assert beta[1] * SPEED_OF_LIGHT == pytest.approx(accel * t0, rel=1e-6)
+    # At 2000 t0 the sail is ≥ 2800 L0 out: √(2 − L0/L) within 2e-4 of √2.
+    assert beta[2] / beta[1] == pytest.approx(math.sqrt(2), rel=5e-4)
 
 
 def test_diffraction_slows_the_sail_beyond_l0():

@@ -1,0 +1,220 @@
+"""Issue 9's reproductions: every valid configuration runs to a clean end, every invalid input or
+physically impossible configuration is refused up front with one ValueError naming the limit."""
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sail_env  # noqa: F401  (registers the ids)
+from sail_env.core.spec import MAX_PUSH_NOISE
+from sail_env.envs import LightSailEnv
+from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
+from sail_env.physics.config import MAX_CONTROL_STEPS
+from sail_env.physics.constants import SPEED_OF_LIGHT
+from sail_env.tasks import DEEP_DISH_START_HALF_WIDTHS, REALISTIC_DISTURBANCES
+
+ZERO = np.zeros(2, dtype=np.float32)
+
+
+def episode(env_id="LightSail-v0", seed=0, options=None, **kwargs):
+    """Issue 9's ``ep``: make, reset(seed), zero commands to the end; checks every observation and reward."""
+    env = gym.make(env_id, **kwargs)
+    obs, info = env.reset(seed=seed, options=options)
+    observations, done = [obs], False
+    with np.errstate(over="raise", invalid="raise"):
+        while not done:
+            obs, reward, terminated, truncated, info = env.step(ZERO)
+            observations.append(obs)
+            assert math.isfinite(reward)
+            done = terminated or truncated
+    for obs in observations:
+        assert env.observation_space.contains(obs) and np.all(np.isfinite(obs))
+    assert info["diverged"] or math.isfinite(info["terminal_pointing_rad"])
+    return len(observations) - 1, info
+
+
+# ---------------------------------------------------------------- valid configurations that crashed
+def test_unstable_sail_that_leaves_the_beam_before_control_ends_at_the_first_step():
+    # 10 s of a 100/s divergence: the pre-control Gaussian was e^2000 wide (LinAlgError).
+    steps, info = episode(config=FLAT.replace(control_start_s=10.0))
+    assert steps == 1 and info["diverged"] is True and info["terminal_pointing_rad"] == math.inf
+
+
+def test_strong_push_noise_on_the_deep_dish_runs_to_the_end():
+    # The spread grows as e^{0.75 t} (parametric excitation), e^450 over the coast: now in pieces.
+    steps, info = episode("LightSailDeepDish-v0", push_noise=0.2)
+    assert steps == SEED.control_steps
+
+
+@pytest.mark.parametrize("radius", [12.0, 20.0, 50.0])
+def test_realistic_disturbances_on_shallow_dishes(radius):
+    config = DEEP_DISH.replace(curvature_radius_m=radius, control_start_s=10.0)
+    for seed in range(5):
+        episode(seed=seed, config=config, start_half_widths=DEEP_DISH_START_HALF_WIDTHS, **REALISTIC_DISTURBANCES)
+
+
+def test_window_ending_exactly_at_the_cutoff_is_scored_there():
+    steps, info = episode(config=SEED.replace(control_window_s=0.35, beam_cutoff_s=0.35))
+    assert steps == 70 and info["cutoff_s"] == 0.35 and not info["diverged"]
+
+
+@pytest.mark.parametrize("config, kwargs", [
+    (SEED.replace(control_window_s=0.3526, beam_cutoff_s=0.3526), {}),  # 71 whole steps end at 0.355 s
+    (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0), {"light_delay": True}),  # commands still in flight
+    (SEED.replace(beam_cutoff_s=2.0), {"cutoff_jitter_s": 1.5}),  # the earliest cut-off falls in the window
+])
+def test_cutoff_before_the_last_command_arrives_is_refused(config, kwargs):
+    with pytest.raises(ValueError, match="beam_cutoff_s - cutoff_jitter_s"):
+        LightSailEnv(config, **kwargs)
+
+
+def test_parameter_spread_that_can_draw_an_invalid_sail_is_refused():
+    with pytest.raises(ValueError, match="parameter_spread=0.05 can draw strut_length_m < com_distance_m"):
+        LightSailEnv(SEED.replace(strut_length_m=10.0), parameter_spread=0.05)
+    with pytest.raises(ValueError, match="curvature_radius_m < aperture_radius_m"):
+        LightSailEnv(SEED.replace(curvature_radius_m=2.1), parameter_spread=0.1)
+    # At the limit every draw is valid: 200 resets.
+    env = LightSailEnv(SEED.replace(strut_length_m=10.0 * 1.05 / 0.95), parameter_spread=0.05)
+    for seed in range(200):
+        env.reset(seed=seed)
+
+
+# ---------------------------------------------------------------- physically impossible: refused
+def test_newtonian_speed_past_light_at_cutoff_is_refused():
+    with pytest.raises(ValueError, match="speed of light"):
+        SEED.replace(push_force_n=1e6)  # 1e9 m/s² for 600 s
+    # The limit is a t < c: just below passes, just above is refused.
+    limit_force = SPEED_OF_LIGHT / SEED.beam_cutoff_s * SEED.total_mass_kg
+    SEED.replace(push_force_n=0.999 * limit_force)
+    with pytest.raises(ValueError, match="speed of light"):
+        SEED.replace(push_force_n=1.001 * limit_force)
+    # The fastest parameter draw and the latest cut-off count too.
+    config = SEED.replace(push_force_n=0.95 * limit_force)
+    with pytest.raises(ValueError, match="fastest draw of parameter_spread"):
+        LightSailEnv(config, parameter_spread=0.1)
+    with pytest.raises(ValueError, match="latest of cutoff_jitter_s"):
+        LightSailEnv(config, cutoff_jitter_s=60.0)
+
+
+def test_light_round_trip_longer_than_the_window_is_refused():
+    # The issue's 334,899,693-dimensional observation: now refused by the speed of light first.
+    with pytest.raises(ValueError, match="speed of light"):
+        LightSailEnv(SEED.replace(push_force_n=1e6, control_start_s=500.0), light_delay=True)
+    # From 60 s the round trip (~240 steps) outlasts a 200-step window; 50 s (~170) is accepted.
+    with pytest.raises(ValueError, match="light_delay: the round trip"):
+        LightSailEnv(SEED.replace(control_start_s=60.0), light_delay=True)
+    spec = LightSailEnv(SEED.replace(control_start_s=50.0), light_delay=True).episode_spec
+    assert spec.history_length <= spec.n_steps + 2
+
+
+def test_windows_beyond_the_step_limit_are_refused():
+    SEED.replace(control_window_s=MAX_CONTROL_STEPS * 0.005)
+    with pytest.raises(ValueError, match="control_window_s / control_step_s"):
+        SEED.replace(control_window_s=1.0, control_step_s=1e-320)  # the ratio overflows to inf
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"push_noise": 1e20}, "push_noise must be <= 0.25"),
+    ({"push_noise": MAX_PUSH_NOISE * 1.001}, "push_noise"),
+    ({"beam_jitter_m": 1e200}, "beam_jitter_m must be <= aperture_radius_m"),
+    ({"cutoff_jitter_s": 1e300}, "cutoff_jitter_s"),
+    ({"start_half_widths": (1e308, 0, 0, 0)}, r"start_half_widths: \|x\| must be <= 2"),
+    ({"start_half_widths": (0, 0, 0.06, 0)}, r"\|theta\|"),
+])
+def test_extreme_sizes_are_refused_at_construction(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        LightSailEnv(**kwargs)
+
+
+@pytest.mark.parametrize("state, name", [({"x": 1e308}, "x"), ({"vx": 1e308}, "vx"), ({"theta": 1e308}, "theta"),
+                                         ({"omega": 1e308}, "omega"), ({"x": -2.5}, "x")])
+def test_starts_outside_the_beam_are_refused_at_reset(state, name):
+    env = gym.make("LightSail-v0", config=SEED.replace(control_start_s=10.0), push_noise=0.01)
+    with pytest.raises(ValueError, match=rf"initial_state: \|{name}\|"):
+        env.reset(options={"initial_state": state})
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match=rf"initial_state: \|{name}\|"):
+        envs.reset(options={"initial_state": state})
+
+
+def test_largest_documented_sizes_run_cleanly():
+    """Every disturbance at its documented maximum, starts at the edge of the limits: a clean episode."""
+    kwargs = dict(push_noise=MAX_PUSH_NOISE, beam_jitter_m=DEEP_DISH.aperture_radius_m, parameter_spread=0.2,
+                  sensor_noise_std=(1e6, 1e6, 1e6, 1e6), cutoff_jitter_s=590.0, light_delay=True)
+    for config in (SEED, DEEP_DISH, FLAT.replace(control_start_s=5.0)):
+        env = LightSailEnv(config, **kwargs)
+        limits = env.episode_spec.start_limits
+        for seed, start in enumerate((limits, -limits, np.zeros(4))):
+            env.reset(seed=seed, options={"initial_state": dict(zip(("x", "vx", "theta", "omega"), start))})
+            done = False
+            while not done:
+                obs, reward, done, _, info = env.step(np.ones(2, dtype=np.float32))
+                assert env.observation_space.contains(obs) and math.isfinite(reward)
+
+
+# ---------------------------------------------------------------- inputs that were misread
+@pytest.mark.parametrize("kwargs, match", [
+    ({"light_delay": "no"}, "light_delay must be True or False"),
+    ({"light_delay": 1}, "light_delay must be True or False"),
+    ({"max_beam_offset_m": True}, "max_beam_offset_m must be a real number"),
+    ({"max_beam_tilt_rad": "2e-3"}, "max_beam_tilt_rad must be a real number"),
+    ({"beam_jitter_m": "1e-5"}, "beam_jitter_m must be a real number"),
+    ({"parameter_spread": np.array([0.1])}, "parameter_spread must be a real number"),
+    ({"sensor_noise_std": 0.1}, "sensor_noise_std must be 4 real numbers"),
+    ({"sensor_noise_std": "1234"}, "sensor_noise_std must be 4 real numbers"),
+    ({"start_half_widths": (0, 0, False, 0)}, r"start_half_widths\[2\] must be a real number"),
+    ({"config": None}, "config must be a SailConfig or one of"),
+    ({"config": {"push_force_n": 1.0}}, r"config must be a SailConfig .*SailConfig\(\*\*fields\)"),
+])
+def test_misread_arguments_are_refused_in_the_users_terms(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        gym.make("LightSail-v0", **kwargs)
+    with pytest.raises(ValueError, match=match):
+        gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
+
+
+def test_numpy_scalars_are_real_numbers_and_give_the_same_episode():
+    plain = episode(seed=3, config=SEED.replace(push_force_n=100.0), max_beam_offset_m=0.02,
+                    options={"initial_state": {"x": 1e-3}})
+    numpy = episode(seed=3, config=SEED.replace(push_force_n=np.float32(100.0)), max_beam_offset_m=np.float64(0.02),
+                    sensor_noise_std=np.zeros(4), options={"initial_state": {"x": np.float64(1e-3)}})
+    assert plain[1]["terminal_pointing_rad"] == numpy[1]["terminal_pointing_rad"]
+    assert type(SailConfig(push_force_n=np.int64(100)).push_force_n) is float
+    with pytest.raises(ValueError, match="com_distance_m must be a real number"):
+        SEED.replace(com_distance_m=np.bool_(True))
+
+
+@pytest.mark.parametrize("state, match", [({"x": "0.001"}, r"initial_state\['x'\] must be a real number"),
+                                          ({"x": True}, r"initial_state\['x'\] must be a real number"),
+                                          ([0.0, 0, 0, 0], "initial_state must be a dict")])
+def test_misread_initial_states_are_refused(state, match):
+    env = gym.make("LightSail-v0")
+    with pytest.raises(ValueError, match=match):
+        env.reset(options={"initial_state": state})
+
+
+def test_vector_initial_state_array_must_be_real():
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match=r"finite real array of shape \(2, 4\)"):
+        envs.reset(options={"initial_state": np.full((2, 4), "0.001")})
+    envs.reset(options={"initial_state": np.zeros((2, 4), dtype=np.float32)})
+
+
+@pytest.mark.parametrize("action", [np.zeros((1, 2)), np.array(["0", "0"]), np.array([True, False]), np.zeros(3),
+                                    np.array([None, None])])
+def test_misread_actions_are_refused_naming_the_shape(action):
+    env = gym.make("LightSail-v0")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"action must be 2 real numbers \(shape \(2,\)\)"):
+        env.step(action)
+
+
+@pytest.mark.parametrize("actions", [np.zeros(2), np.zeros((1, 2)), np.zeros((3, 2, 1)), np.full((3, 2), "0"),
+                                     np.zeros((3, 2), dtype=bool)])
+def test_misread_vector_actions_are_refused_naming_the_shape(actions):
+    envs = gym.make_vec("LightSail-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match=r"actions must be real numbers of shape \(3, 2\)"):
+        envs.step(actions)
