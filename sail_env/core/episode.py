@@ -35,6 +35,13 @@ def log_ratio(pointing: np.ndarray) -> np.ndarray:
     return np.minimum(np.maximum(ratio, low), high)
 
 
+def take(array: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``array[rows, columns]`` as one flat ``np.take``: the same elements, several times faster
+    than NumPy's two-array fancy indexing for the per-environment columns the core gathers."""
+    flat = array.reshape(-1, *array.shape[2:])
+    return np.take(flat, rows * array.shape[1] + columns, axis=0)
+
+
 @dataclasses.dataclass
 class StepResult:
     """What one step of the core returns, per environment (arrays of length N)."""
@@ -161,8 +168,8 @@ class EpisodeCore:
     def _applied(self, index: np.ndarray, step: np.ndarray, newest: np.ndarray | int) -> np.ndarray:
         """The command acting during ``step``: the newest arrived (at most ``newest``, the last
         sent), zero before any arrives."""
-        sent = np.minimum(step - self.delay[index, step], newest)
-        command = self.commands[index, sent % self.commands.shape[1]]
+        sent = np.minimum(step - take(self.delay, index, step), newest)
+        command = take(self.commands, index, sent % self.commands.shape[1])
         return np.where((sent >= 0)[:, None], command, 0.0)
 
     def step(self, action: np.ndarray) -> StepResult:
@@ -246,16 +253,16 @@ class EpisodeCore:
         index = self._rows if index is None else index
         step = self.step_index[index]
         if self.delayed:
-            shown = np.maximum(step - self.delay[index, step] + self.lag0[index], 0)
-            measured = self.states[index, shown % self.states.shape[1]]
+            shown = np.maximum(step - take(self.delay, index, step) + self.lag0[index], 0)
+            measured = take(self.states, index, shown % self.states.shape[1])
         else:
             measured = self.x[index]
         if self.sensor is not None:
-            measured = measured + spec.sensor_noise_std * self.sensor[index, step]
+            measured = measured + spec.sensor_noise_std * take(self.sensor, index, step)
         parts = [measured / spec.state_scale, (2.0 * step / spec.n_steps - 1.0)[:, None]]
         if spec.history_length:
             sent = step[:, None] - 1 - np.arange(spec.history_length)
-            recent = self.commands[index[:, None], sent % self.commands.shape[1]]
+            recent = take(self.commands, index[:, None], sent % self.commands.shape[1])
             recent = np.where((sent >= 0)[..., None], recent / spec.action_scale, 0.0)
             parts.append(recent.reshape(len(step), -1))
         obs = np.concatenate(parts, axis=1)

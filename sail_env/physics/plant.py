@@ -157,7 +157,7 @@ class PlanarPlant:
     def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
         """One control step with ``u`` held; ``push`` (k,) is the relative push error ε of the step."""
         z = np.concatenate([x, u], axis=-1)
-        y = z @ p.step[0].T if p.shared else np.einsum("kij,kj->ki", p.step, z)
+        y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
         if push is None:
             return y[:, :4]
         eps = push[:, None]

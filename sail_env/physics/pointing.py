@@ -70,7 +70,7 @@ def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray) -> np.n
     z = np.concatenate([state, action], axis=-1)
     if table.ndim == 2:
         return np.abs(z @ table.T).max(axis=-1)
-    return np.abs(np.einsum("...sk,...k->...s", table, z)).max(axis=-1)
+    return np.abs(np.matmul(table, z[..., None])).max(axis=(-2, -1))
 
 
 class EnvelopeEstimator:
