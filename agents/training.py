@@ -90,7 +90,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--eval-freq", type=int, default=10_000, help="evaluate every N steps (<= 0: never)")
     parser.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes per evaluation")
     parser.add_argument("--save-freq", type=int, default=DEFAULT_SAVE_FREQ, help="checkpoint every N steps (<= 0: only at the end)")
-    parser.add_argument("--no-progress-bar", action="store_true")
+    parser.add_argument("--no-progress-bar", action="store_true",
+                        help="no bar on a terminal (without one, as in a log file, the evaluations' lines show progress)")
     args = parser.parse_args(argv)
     if args.seed < 0:
         parser.error(f"argument --seed: must be >= 0, got {args.seed}")
@@ -374,7 +375,7 @@ def main(argv: list[str] | None = None) -> int:
             run_dir.mkdir(parents=True, exist_ok=True)
             point_latest(run_dir)
         session = train(config, run_dir, shlex.join(["python", "train.py", *argv]), resume=args.resume is not None,
-                        progress_bar=not args.no_progress_bar)
+                        progress_bar=not args.no_progress_bar and sys.stderr.isatty())
     except (ModelLoadError, ValueError) as err:
         return cli.fail(err)
     status = session["status"]
