@@ -44,7 +44,7 @@ from optuna.trial import FrozenTrial, TrialState
 from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
 
 from agents import cli, evaluation, training
-from agents.sb3 import ALGOS, load_hyperparams, versions
+from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, normalize_kwargs, versions
 from sail_env.tasks import TASKS
 
 DEFAULT_STORAGE = "sqlite:///runs/grid.db"
@@ -55,6 +55,8 @@ AGENTS = ("passive", "lqr", "lqg", *sorted(ALGOS))
 HYPERPARAMETERS = ("tuned", "default")
 EPISODES = 200
 SEEDS = (0, 1, 2)
+#: Tries to open (and on first use, create) the storage.
+SCHEMA_ATTEMPTS = 4
 #: A cell that fails this many times is left failed.
 MAX_RETRY = 3
 CELL_PARAMS = ("env", "agent", "hyperparameters", "seed")
@@ -120,11 +122,14 @@ def open_storage(url: str, heartbeat: int, grace: int) -> RDBStorage:
         return RDBStorage(url, engine_kwargs=engine, heartbeat_interval=heartbeat, grace_period=grace,
                           heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=MAX_RETRY))
 
-    try:
-        return connect()
-    except (IntegrityError, ProgrammingError):  # two workers created the schema of a new database at once
-        time.sleep(1)
-        return connect()
+    for attempt in range(SCHEMA_ATTEMPTS - 1):
+        try:
+            return connect()
+        except (IntegrityError, ProgrammingError, OperationalError):
+            # Workers creating the schema of a new database at once: one wins, the others read
+            # "already exists" and try again; a storage that stays unreachable fails on the last try.
+            time.sleep(1 + attempt)
+    return connect()
 
 
 def create_grid(storage: RDBStorage, study_name: str, cells: list[Cell], settings: dict[str, Any]) -> optuna.Study:
@@ -217,9 +222,12 @@ def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str,
     if cell.trained:
         config = cell_config(cell, settings)
         result["hyperparams"] = config["hyperparams"]
-        resume = (run_dir / "checkpoints").is_dir() and any((run_dir / "checkpoints").glob("*.zip"))
-        done = resume and training.checkpoint_steps(training.latest_checkpoint(run_dir)) >= int(
-            config["hyperparams"]["n_timesteps"])
+        normalized = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
+        try:  # a cell put back in the queue continues from its newest complete checkpoint
+            reached = training.checkpoint_steps(training.latest_checkpoint(run_dir, normalized))
+        except ModelLoadError:
+            reached = None
+        resume, done = reached is not None, reached is not None and reached >= int(config["hyperparams"]["n_timesteps"])
         if not done:
             session = training.train(config, run_dir, f"python -m agents.grid run ({cell.name})", resume=resume,
                                      on_evaluation=lambda steps, rate: trial.set_user_attr("timesteps", steps))

@@ -29,6 +29,7 @@ import shlex
 import signal
 import sys
 import time
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -195,12 +196,15 @@ def checkpoint_steps(path: Path) -> int:
     return int(path.stem.split("_")[-2])
 
 
-def latest_checkpoint(run_dir: Path) -> Path:
-    """The checkpoint with the most steps in ``run_dir/checkpoints``."""
+def latest_checkpoint(run_dir: Path, normalized: bool = False) -> Path:
+    """The checkpoint with the most steps in ``run_dir/checkpoints`` that was written completely:
+    a whole zip and, for a ``normalized`` run, its statistics (a process killed while saving
+    leaves the newest one incomplete; the one before it is then the latest)."""
     found = sorted((run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"), key=checkpoint_steps)
-    if not found:
-        raise ModelLoadError(f"{run_dir / 'checkpoints'}: no checkpoint to resume from")
-    return found[-1]
+    complete = [path for path in found if zipfile.is_zipfile(path) and (not normalized or normalizer_path(path).is_file())]
+    if not complete:
+        raise ModelLoadError(f"{run_dir / 'checkpoints'}: no complete checkpoint to resume from")
+    return complete[-1]
 
 
 def save_checkpoint(model: BaseAlgorithm, run_dir: Path) -> Path:
@@ -289,7 +293,8 @@ def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = Fa
     """
     algo, env_id, seed = config["algo"], config["env"], config["seed"]
     hp = config["hyperparams"]
-    resume_from = latest_checkpoint(run_dir) if resume else None
+    n_envs, normalize, gamma = int(hp.get("n_envs", 1)), normalize_kwargs(hp.get("normalize", False)), hp.get("gamma", 0.99)
+    resume_from = latest_checkpoint(run_dir, normalize is not None) if resume else None
     offset = checkpoint_steps(resume_from) if resume_from else 0
     total = whole_rollouts(algo, int(hp["n_timesteps"]), hp)
     if resume_from is not None and offset >= total:
@@ -298,7 +303,6 @@ def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = Fa
     one_thread_per_process()
     set_random_seed(seed)
 
-    n_envs, normalize, gamma = int(hp.get("n_envs", 1)), normalize_kwargs(hp.get("normalize", False)), hp.get("gamma", 0.99)
     # A resumed run draws new episodes: reseed by the step count it continues from.
     train_env = make_env(env_id, n_envs, seed + offset, config["vec_env"], normalize, gamma, training=True)
     eval_env = make_env(env_id, max(1, min(EVAL_ENVS, config["eval_episodes"])), seed + EVAL_SEED_OFFSET,

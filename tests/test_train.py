@@ -129,6 +129,20 @@ def test_a_new_run_never_writes_into_an_old_one(tmp_path: Path, monkeypatch: pyt
     assert "has trained its 512 steps" in capsys.readouterr().err
 
 
+def test_resume_skips_a_checkpoint_its_process_did_not_finish_writing(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    assert train.main(["--algo", "ppo", "--timesteps", "1024", "--out", str(out), *FAST]) == 0
+    checkpoints = out / "checkpoints"
+    assert train.latest_checkpoint(out, normalized=True).name == "rl_model_1024_steps.zip"
+    (checkpoints / "rl_model_vecnormalize_1024_steps.pkl").unlink()  # killed between the zip and the statistics
+    assert train.latest_checkpoint(out, normalized=True).name == "rl_model_768_steps.zip"
+    (checkpoints / "rl_model_768_steps.zip").write_bytes(b"PK\x03\x04 cut short")  # killed inside the zip
+    assert train.latest_checkpoint(out, normalized=True).name == "rl_model_512_steps.zip"
+    assert train.latest_checkpoint(out, normalized=False).name == "rl_model_1024_steps.zip"
+    assert train.main(["--resume", str(out), "--timesteps", "1536", "--no-progress-bar"]) == 0
+    assert train.read_run(out)["sessions"][-1]["start_timesteps"] == 512
+
+
 def test_save_freq_zero_checkpoints_only_at_the_end(tmp_path: Path) -> None:
     out = tmp_path / "run"
     argv = ["--algo", "ppo", "--timesteps", "512", "--out", str(out), *FAST, "--save-freq", "0"]
@@ -157,4 +171,4 @@ def test_resume_without_a_checkpoint_is_a_one_line_error(tmp_path: Path, capsys:
     (tmp_path / "run.json").write_text(json.dumps({"config": config}))
     assert train.main(["--resume", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert "no checkpoint to resume from" in err and "\n" not in err
+    assert "no complete checkpoint to resume from" in err and "\n" not in err
