@@ -116,5 +116,7 @@ def flight_e_folds(sail: RigidSail, flight: Flight, segment_s: float = 10.0) -> 
                                    beam_scale=float(flight.beam_scale(mid)), velocity_terms=True)
         frequencies, decay = mode_damping_rates(lin.A)
         first = frequencies if first is None else first
+        if frequencies.size != first.size:
+            raise ValueError(f"the oscillating modes change along the flight (at {mid:.0f} s): e-folds undefined")
         total = decay * (hi - lo) if total is None else total + decay * (hi - lo)
     return first, total

@@ -78,11 +78,14 @@ CIRCULAR_ARRAY_FACTOR = 1.22
 #: (1.06e-11 rad), per 5 ms step. Three orders of magnitude above what any sail in the
 #: tables tolerates: with it no controller can meet 10 nrad (§11).
 GROUND_JITTER_PHYSICAL_RAD = 0.1 * LASER_WAVELENGTH_M / ARRAY_DIAMETER_M
-#: The benchmark's level, per 5 ms step: a third of what the deep dish in a flat-top beam of
-#: its aperture tolerates (95 % inside 10 nrad over the relativistic flight from 10 s), so
-#: the jitter alone leaves a sail that is on the beam at the end of control well inside
-#: the tolerance, and the control window's residual decides the score.
-GROUND_JITTER_BENCHMARK_RAD = 1e-15
+#: The benchmark's level is this fraction of what the task's sail tolerates (95 % inside 10 nrad
+#: over the whole flight): the jitter alone then leaves a sail that is on the beam well inside
+#: the tolerance (per axis 2 nrad of the 4.1 nrad budget), and the control window's residual
+#: decides the score.
+BENCHMARK_FRACTION = 0.5
+#: That level, per 5 ms step, for the deep dish (R = 4 m) in a flat-top beam of its aperture on
+#: the relativistic flight with the L0 of a 10 km array (it tolerates 3.1e-15).
+GROUND_JITTER_BENCHMARK_RAD = 1.5e-15
 
 
 def diffraction_length_m(spot_radius_m: float, array_diameter_m: float = ARRAY_DIAMETER_M,
