@@ -61,7 +61,24 @@ class RadiationModel:
     def wrench(self, position: np.ndarray, rotation: np.ndarray, beam_offset: np.ndarray,
                beam_tilt: np.ndarray, power_w: np.ndarray | float,
                beam_scale: np.ndarray | float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-        """Radiation force (lab frame) and torque about the CoM (body frame) [N, N m].
+        """Radiation force (lab frame) and torque about the CoM (body frame) [N, N m]; arguments
+        as :meth:`elements`."""
+        flux, point, normal, direction = self.elements(position, rotation, beam_offset, beam_tilt, power_w,
+                                                       beam_scale)
+        cos_incidence = np.sum(normal * direction, axis=-1)
+        reflect = 2.0 * self.config.reflectivity * flux * cos_incidence
+        force_elements = reflect[..., None] * normal + (self.config.absorptivity * flux)[..., None] * direction
+        force_body = force_elements.sum(axis=(1, 2))
+        torque_body = np.cross(point, force_elements).sum(axis=(1, 2))
+        force_lab = np.einsum("nij,nj->ni", np.asarray(rotation, float), force_body)
+        return force_lab, torque_body
+
+    def elements(self, position: np.ndarray, rotation: np.ndarray, beam_offset: np.ndarray,
+                 beam_tilt: np.ndarray, power_w: np.ndarray | float,
+                 beam_scale: np.ndarray | float = 1.0) -> tuple[np.ndarray, ...]:
+        """The quadrature's lit elements: ``(flux, point, normal, direction)``, each (N, angles,
+        radial[, 3]) — the momentum flux ``I du dv / c`` [N] through each node's share of the plane
+        across the beam, and the hit point, push normal and beam direction in the body frame.
 
         Args:
             position: ``(N, 3)`` CoM in the co-moving lab frame (z along the unperturbed beam).
@@ -115,13 +132,7 @@ class RadiationModel:
         k_body = np.einsum("nji,nj->ni", rotation, k)
         direction = np.broadcast_to(k_body[:, None, None, :], origin.shape)
         point, normal = geo.intersect(origin, direction)
-        cos_incidence = np.sum(normal * direction, axis=-1)
-        reflect = 2.0 * self.config.reflectivity * flux * cos_incidence
-        force_elements = reflect[..., None] * normal + (self.config.absorptivity * flux)[..., None] * direction
-        force_body = force_elements.sum(axis=(1, 2))
-        torque_body = np.cross(point, force_elements).sum(axis=(1, 2))
-        force_lab = np.einsum("nij,nj->ni", rotation, force_body)
-        return force_lab, torque_body
+        return flux, point, normal, direction
 
     def _split_angles(self, g0: np.ndarray, inverse: np.ndarray, inner: np.ndarray,
                       outer: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
