@@ -85,20 +85,21 @@ def _kron(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def second_moment(mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """``E[x xᵀ]`` of the augmented state ``x = (s, 1)``, flattened (..., 25)."""
-    batch = mean.shape[:-1]
-    second = np.zeros((*batch, 5, 5))
-    second[..., :4, :4] = cov + mean[..., :, None] * mean[..., None, :]
-    second[..., :4, 4] = second[..., 4, :4] = mean
-    second[..., 4, 4] = 1.0
-    return second.reshape(*batch, 25)
+    """``E[x xᵀ]`` of the augmented state ``x = (s, 1)``, flattened (..., (n + 1)²)."""
+    batch, n = mean.shape[:-1], mean.shape[-1]
+    second = np.zeros((*batch, n + 1, n + 1))
+    second[..., :n, :n] = cov + mean[..., :, None] * mean[..., None, :]
+    second[..., :n, n] = second[..., n, :n] = mean
+    second[..., n, n] = 1.0
+    return second.reshape(*batch, (n + 1) ** 2)
 
 
 def mean_and_covariance(second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverse of :func:`second_moment` (the covariance symmetrised against round-off)."""
-    second = second.reshape(*second.shape[:-1], 5, 5)
-    mean = second[..., :4, 4].copy()
-    cov = second[..., :4, :4] - mean[..., :, None] * mean[..., None, :]
+    n = round(np.sqrt(second.shape[-1])) - 1
+    second = second.reshape(*second.shape[:-1], n + 1, n + 1)
+    mean = second[..., :n, n].copy()
+    cov = second[..., :n, :n] - mean[..., :, None] * mean[..., None, :]
     return mean, 0.5 * (cov + np.swapaxes(cov, -1, -2))
 
 
