@@ -12,12 +12,15 @@ import numpy as np
 from sail_env.core.delay import delay_steps
 from sail_env.physics.config import PRESETS, SailConfig
 from sail_env.physics.plant import PlanarPlant
+from sail_env.physics.plant3d import RigidFlight, RigidPlant
 
 #: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
 DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
 #: Observation scales: the state is divided by these (rates by the model's fastest rate too).
 POSITION_SCALE_M = 1e-2
 TILT_SCALE_RAD = 1e-3
+#: The plant of each kind of configuration.
+PLANTS = {SailConfig: PlanarPlant, RigidFlight: RigidPlant}
 #: Round-off allowed between times computed as ``start + steps · dt`` and configured times.
 TIME_TOLERANCE_S = 1e-9
 
@@ -28,7 +31,8 @@ class Disturbances:
 
     Attributes:
         sensor_noise_std: Standard deviation of the measurement of each state component
-            ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``, white, per observation.
+            (planar ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``; one per state of the plant),
+            white, per observation.
         beam_jitter_m: Standard deviation of the beam's landing offset per control step
             (white, held for the step); over the coast the same spectral density
             ``σ² dt`` acts as continuous white noise.
@@ -51,10 +55,9 @@ class Disturbances:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sensor_noise_std", tuple(float(s) for s in self.sensor_noise_std))
-        if len(self.sensor_noise_std) != 4 or not all(
-                math.isfinite(s) and s >= 0 for s in self.sensor_noise_std):
+        if not all(math.isfinite(s) and s >= 0 for s in self.sensor_noise_std):
             raise ValueError(
-                f"sensor_noise_std must be 4 finite values >= 0, got {self.sensor_noise_std}")
+                f"sensor_noise_std must be finite values >= 0, got {self.sensor_noise_std}")
         for name in ("beam_jitter_m", "push_noise", "cutoff_jitter_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
@@ -72,20 +75,22 @@ class EpisodeSpec:
 
     Attributes:
         config: The nominal :class:`SailConfig`.
-        plant: The batched physics (:class:`~sail_env.physics.plant.PlanarPlant`).
+        plant: The batched physics: :class:`~sail_env.physics.plant.PlanarPlant` for a
+            :class:`SailConfig`, :class:`~sail_env.physics.plant3d.RigidPlant` for a
+            :class:`~sail_env.physics.plant3d.RigidFlight`.
         nominal: The nominal linear model (what a controller designs on).
         disturbances: The :class:`Disturbances`.
         dt, n_steps: Control step [s] and number of steps in the control window.
-        action_scale: Physical beam input at action +1, ``(d [m], ψ [rad])``.
+        action_scale: Physical input at action +1 (planar ``(d [m], ψ [rad])``).
         state_scale: Divides the SI state in the observation.
-        start_half_widths: Uniform start distribution at launch, ``(X, Vx, θ, ω)``.
+        start_half_widths: Uniform start distribution at launch, one per state (planar ``(X, Vx, θ, ω)``).
         history_length: Commands shown in the observation (the largest round trip with
             light delay, with a step of margin each way for the parameter draw; else 0).
         max_delay: Largest one-way delay [steps] any parameter draw can see up to the
             last command's arrival (sizes the core's buffers).
     """
 
-    def __init__(self, config: SailConfig | str = "seed", *, max_beam_offset_m: float = 0.02,
+    def __init__(self, config: SailConfig | RigidFlight | str = "seed", *, max_beam_offset_m: float = 0.02,
                  max_beam_tilt_rad: float = 2e-3,
                  start_half_widths: Sequence[float] = DEFAULT_START_HALF_WIDTHS,
                  disturbances: Disturbances = Disturbances()) -> None:
@@ -93,27 +98,35 @@ class EpisodeSpec:
             if config not in PRESETS:
                 raise ValueError(f"config must be a SailConfig or one of {sorted(PRESETS)}, got {config!r}")
             config = PRESETS[config]
+        if type(config) not in PLANTS:
+            raise ValueError(f"config must be a SailConfig, a RigidFlight or a preset name, got {config!r}")
         for name, value in (("max_beam_offset_m", max_beam_offset_m), ("max_beam_tilt_rad", max_beam_tilt_rad)):
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
-        widths = tuple(float(w) for w in start_half_widths)
-        if len(widths) != 4 or not all(math.isfinite(w) and w >= 0 for w in widths):
-            raise ValueError(f"start_half_widths must be 4 finite values >= 0, got {widths}")
         self.config = config
         self.disturbances = disturbances
-        self.plant = PlanarPlant(config, disturbances.parameter_spread, disturbances.beam_jitter_m,
-                                 disturbances.push_noise)
+        self.plant = PLANTS[type(config)](config, disturbances.parameter_spread, disturbances.beam_jitter_m,
+                                          disturbances.push_noise)
+        n = self.plant.n_states
+        widths = tuple(float(w) for w in start_half_widths)
+        if len(widths) != n or not all(math.isfinite(w) and w >= 0 for w in widths):
+            raise ValueError(f"start_half_widths must be {n} finite values >= 0, got {widths}")
+        if disturbances.any_sensor_noise and len(disturbances.sensor_noise_std) != n:
+            raise ValueError(f"sensor_noise_std must be {n} values (one per state), got {disturbances.sensor_noise_std}")
         self.nominal = self.plant.nominal
         self.dt = config.control_step_s
         self.n_steps = config.control_steps
-        self.action_scale = np.array([max_beam_offset_m, max_beam_tilt_rad])
+        physical = {"m": max_beam_offset_m, "rad": max_beam_tilt_rad, **self.plant.input_ranges}
+        self.action_scale = np.array([physical[unit] for unit in self.plant.input_units])
         self.start_half_widths = np.array(widths)
-        self.sensor_noise_std = np.array(disturbances.sensor_noise_std)
+        self.sensor_noise_std = np.array(disturbances.sensor_noise_std) if disturbances.any_sensor_noise else np.zeros(n)
         rate = self.plant.rate_scale()
-        self.state_scale = np.array([POSITION_SCALE_M, POSITION_SCALE_M * rate, TILT_SCALE_RAD, TILT_SCALE_RAD * rate])
+        scales = {"m": POSITION_SCALE_M, "m/s": POSITION_SCALE_M * rate, "rad": TILT_SCALE_RAD,
+                  "rad/s": TILT_SCALE_RAD * rate}
+        self.state_scale = np.array([scales[unit] for unit in self.plant.state_units])
         if disturbances.light_delay:
             self.history_length = 2 * (int(self.delay_steps(self.n_steps)) + 1)
-            fastest = config.axial_acceleration_m_s2 / (1 - disturbances.parameter_spread)
+            fastest = self.plant.max_acceleration_m_s2
             self.max_delay = int(delay_steps(fastest, config.control_start_s, self.dt,
                                              self.n_steps + self.history_length)) + 1
         else:
@@ -132,7 +145,7 @@ class EpisodeSpec:
                 f"{last_arrival:.6g} s")
 
     @classmethod
-    def from_env_kwargs(cls, config: SailConfig | str, max_beam_offset_m: float, max_beam_tilt_rad: float,
+    def from_env_kwargs(cls, config: SailConfig | RigidFlight | str, max_beam_offset_m: float, max_beam_tilt_rad: float,
                         start_half_widths: Sequence[float], **disturbances) -> EpisodeSpec:
         """The spec of an env's keyword arguments (the disturbances by :class:`Disturbances`' field names)."""
         return cls(config, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
@@ -140,20 +153,20 @@ class EpisodeSpec:
 
     @property
     def observation_size(self) -> int:
-        return 5 + 2 * self.history_length
+        return self.plant.n_states + 1 + self.plant.n_inputs * self.history_length
 
     def delay_steps(self, step: np.ndarray | int, acceleration_m_s2: np.ndarray | float | None = None) -> np.ndarray:
         """One-way light delay in steps at control ``step`` (zero without light delay); see
         :func:`sail_env.core.delay.delay_steps`. The nominal acceleration unless given."""
         if not self.disturbances.light_delay:
             return np.zeros(np.shape(step), dtype=np.int64)
-        accel = self.config.axial_acceleration_m_s2 if acceleration_m_s2 is None else acceleration_m_s2
+        accel = self.plant.acceleration_m_s2 if acceleration_m_s2 is None else acceleration_m_s2
         return delay_steps(accel, self.config.control_start_s, self.dt, step)
 
     def observation_to_state(self, observation: np.ndarray) -> np.ndarray:
         """The (possibly delayed and noisy) measured SI state inside an observation."""
-        return np.asarray(observation[..., :4], dtype=np.float64) * self.state_scale
+        return np.asarray(observation[..., :self.plant.n_states], dtype=np.float64) * self.state_scale
 
     def input_to_action(self, beam_input: np.ndarray) -> np.ndarray:
-        """Normalised action for a physical beam input ``(d [m], ψ [rad])``, clipped."""
+        """Normalised action for a physical input (planar ``(d [m], ψ [rad])``), clipped."""
         return np.clip(np.asarray(beam_input) / self.action_scale, -1.0, 1.0).astype(np.float32)

@@ -77,14 +77,18 @@ class LinearPlant:
     as a polynomial in its relative error), the envelope and the coast.
 
     A subclass sets :attr:`state_names`, :attr:`input_names`, :attr:`spread_fields`,
-    :attr:`jitter_inputs` (the input columns the beam jitter moves) and builds
+    :attr:`jitter_inputs` (the input columns the beam jitter moves) and the units, and builds
     :class:`PlantParams` in ``_build``; it says when the sail has diverged and how fast it flies.
     """
 
     state_names: tuple[str, ...]
+    state_units: tuple[str, ...]  # "m", "m/s", "rad", "rad/s": how the observation scales each state
     input_names: tuple[str, ...]
+    input_units: tuple[str, ...]  # "m" and "rad" scale with the task's beam limits
+    input_ranges: dict[str, float]  # the input at action +1 of any other unit
     spread_fields: tuple[str, ...]
     jitter_inputs: tuple[int, ...]
+    velocity_rows: tuple[int, ...]  # the lateral velocity components (pointing and envelope)
 
     def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, beam_jitter_m: float,
                  push_noise: float) -> None:
@@ -203,7 +207,10 @@ class PlanarPlant(LinearPlant):
     """
 
     state_names = STATE_NAMES
+    state_units = ("m", "m/s", "rad", "rad/s")
     input_names = INPUT_NAMES
+    input_units = ("m", "rad")
+    input_ranges: dict[str, float] = {}
     spread_fields = SPREAD_FIELDS
     jitter_inputs = (0,)
     velocity_rows = (VX,)
@@ -250,6 +257,16 @@ class PlanarPlant(LinearPlant):
         regime; NaN counts as left."""
         inside = np.abs(x[:, [X, THETA]]) <= p.limits
         return ~(inside[:, 0] & inside[:, 1])
+
+    @property
+    def acceleration_m_s2(self) -> float:
+        """Nominal axial acceleration [m/s²] (what the light-delay rule assumes)."""
+        return self.config.axial_acceleration_m_s2
+
+    @property
+    def max_acceleration_m_s2(self) -> float:
+        """Largest axial acceleration a parameter draw can give (the lightest sail)."""
+        return self.config.axial_acceleration_m_s2 / (1 - self.parameter_spread)
 
     def speed(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
         """Axial speed ``Vz = a t`` [m/s] (Newtonian, as in the seed's planar model)."""
