@@ -21,10 +21,16 @@ DISCRETIZE_CACHE_SIZE = 4
 
 
 class LinearModel:
-    """``ds/dt = A s + B u`` (read-only matrices) and what controllers and the coast ask of it."""
+    """``ds/dt = A s + B u`` (read-only matrices) and what controllers and the coast ask of it.
 
-    def __init__(self, a: np.ndarray, b: np.ndarray) -> None:
+    ``push_sensitivity`` is ``(∂A/∂ln F, ∂B/∂ln F)``, how the matrices change with the push.
+    """
+
+    def __init__(self, a: np.ndarray, b: np.ndarray,
+                 push_sensitivity: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.A, self.B = a, b
+        if push_sensitivity is not None:
+            self.push_sensitivity = push_sensitivity
         self.A.setflags(write=False)
         self.B.setflags(write=False)
         self._discretized: dict[float, tuple[np.ndarray, np.ndarray]] = {}

@@ -122,7 +122,8 @@ class RigidPlant(LinearPlant):
         self.radiation = lin.push_sensitivity
         self.radiation_b = b
         self.nominal_acceleration = lin.push_n / lin.mass_kg
-        super().__init__(LinearModel(lin.A.copy(), b), flight.control_step_s, parameter_spread, beam_jitter_m,
+        self.fixed_state = {"spin": flight.spin_rad_s}  # a launch state may name it, not change it
+        super().__init__(LinearModel(lin.A.copy(), b, (self.radiation, b)), flight.control_step_s, parameter_spread, beam_jitter_m,
                          push_noise)
 
     @property
