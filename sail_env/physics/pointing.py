@@ -74,9 +74,13 @@ def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray, rows: i
     """
     z = np.concatenate([state, action], axis=-1)
     if rows > 1:
-        table = table.reshape(*table.shape[:-1], rows, z.shape[-1])
-        speeds = np.einsum("srk,...k->...sr" if table.ndim == 3 else "...srk,...k->...sr", table, z)
-        return np.sqrt(np.sum(speeds**2, axis=-1)).max(axis=-1)
+        size = z.shape[-1]
+        if table.ndim == 2:  # one matrix product for the batch, then the norm over the rows
+            speeds = z @ table.reshape(-1, size).T
+        else:
+            speeds = np.einsum("...sk,...k->...s", table.reshape(*table.shape[:-2], -1, size), z)
+        speeds = speeds.reshape(*speeds.shape[:-1], -1, rows)
+        return np.sqrt(np.max(np.einsum("...sr,...sr->...s", speeds, speeds), axis=-1))
     if table.ndim == 2:
         return np.abs(z @ table.T).max(axis=-1)
     return np.abs(np.einsum("...sk,...k->...s", table, z)).max(axis=-1)
