@@ -142,12 +142,19 @@ def sample_uniform(rng: np.random.Generator, low: np.ndarray | float, high: np.n
     return low + (high - low) * rng.random(size)
 
 
+#: Relative difference below which :func:`mode_rates` takes two frequencies as one mode.
+SAME_MODE = 1e-2
+
+
 def mode_rates(a: np.ndarray, resolution: float = 1e-2) -> tuple[np.ndarray, np.ndarray]:
     """Growth rate (...,) and the slowest and fastest distinct oscillation frequencies (..., 2;
     NaN where there are fewer) [1/s, rad/s] of system matrices (..., n, n), from their eigenvalues.
 
     Imaginary parts below ``resolution`` [rad/s] are not oscillations: a defective double zero
     (a neutral direction) splits by round-off into ``±√ε``, which is no mode to look ahead over.
+    Frequencies within :data:`SAME_MODE` of each other count as one: a spin splits each pair
+    of x/y modes by ``~(I_a/I_t) Ω`` into two whose slow beat turns the oscillation's plane
+    (precession) but hardly changes ``|V⊥|``; looking ahead over that beat would take minutes.
     """
     eig = np.linalg.eigvals(a)
     growth = np.maximum(eig.real.max(axis=-1), 0.0)
@@ -157,5 +164,5 @@ def mode_rates(a: np.ndarray, resolution: float = 1e-2) -> tuple[np.ndarray, np.
         filled = np.where(oscillating[..., None], imag, 0.0)
         low, high = np.nanmin(filled, axis=-1), np.nanmax(filled, axis=-1)
     low = np.where(oscillating, low, np.nan)
-    high = np.where(oscillating & (high > low * (1 + 1e-6)), high, np.nan)
+    high = np.where(oscillating & (high > low * (1 + SAME_MODE)), high, np.nan)
     return growth, np.stack([low, high], axis=-1)
