@@ -37,10 +37,17 @@ class LinearModel:
 
     @functools.cached_property
     def controllable_basis(self) -> np.ndarray:
-        """Orthonormal basis (columns) of the controllable subspace ``range[B, AB, …, Aⁿ⁻¹B]``."""
+        """Orthonormal basis (columns) of the controllable subspace ``range[B, AB, …, Aⁿ⁻¹B]``.
+
+        Each block is scaled to unit norm (the same span): with ``‖A‖`` ~ 5e4 the block of
+        ``A⁷B`` would otherwise bury a weak but real channel of the 3D model (a torque 200 times
+        weaker than the force) below the rank threshold.
+        """
         blocks = [self.B]
         for _ in range(self.A.shape[0] - 1):
-            blocks.append(self.A @ blocks[-1])
+            block = self.A @ blocks[-1]
+            norm = np.linalg.norm(block)
+            blocks.append(block / norm if norm > 0 else block)
         ctrb = np.hstack(blocks)
         u, sv, _ = np.linalg.svd(ctrb)
         rank = int(np.sum(sv > 1e-10 * sv[0])) if sv[0] > 0 else 0
