@@ -12,8 +12,9 @@ radiation wrench's Jacobian (no quadrature per reset).
 A power command ``u₅`` (relative power) scales every radiation term: ``A(u₅) = K + (1 + u₅) A_rad``
 and ``B(u₅) = (1 + u₅) B`` (``A_rad = ∂A/∂ln P``, ``K`` the kinematics and the gyroscopic
 coupling). Each step is exact in ``u₅`` to ``O(u₅⁵)`` through the push expansion of
-:func:`~sail_env.physics.linear.push_expansion` (to fourth order: ~1e-10 of the state per
-step at ±10 %), which also carries the push noise. The axial speed the pointing divides by is
+:func:`~sail_env.physics.linear.push_expansion` (to fourth order: ~1e-13 of the step's largest
+entry at ±10 %, against 1e-6 to second order; measured in the tests against ``expm``), which also
+carries the push noise. The axial speed the pointing divides by is
 the nominal push's: a ±10 % power command during the 1 s window changes ``Vz`` at a 600 s
 cut-off by at most 0.02 %.
 """
