@@ -3,9 +3,10 @@ through :meth:`LightSailVectorEnv.from_spec`).
 
 The same episode core (:class:`~sail_env.core.EpisodeCore`) as :class:`LightSailEnv`,
 with N environments: environment ``i`` seeded with ``seed + i`` plays exactly the
-episodes a ``LightSailEnv`` seeded with ``seed + i`` plays, to round-off. Every planar
-task and keyword is supported (light delay with per-environment command queues, sensor
-noise, jitter, push noise, cut-off jitter, parameter spread with per-environment models).
+episodes a ``LightSailEnv`` (or ``LightSail3DEnv``) seeded with ``seed + i`` plays, to
+round-off. Every task and keyword is supported (light delay with per-environment command
+queues, sensor noise, jitter, push noise, cut-off jitter, parameter spread with
+per-environment models); the 3D ids reach it through ``sail_env.envs.rigid3d.rigid3d_vector_env``.
 
     envs = gym.make_vec("LightSail-v0", num_envs=1024, vectorization_mode="vector_entry_point")
 
