@@ -45,7 +45,10 @@ from sail_env.tasks import TASKS  # noqa: E402
 BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
 #: Apart from the seeds train.py trains and selects models on.
 DEFAULT_SEED = 100_000
-START_KEYS = ("x", "vx", "theta", "omega")
+#: The tilt on the x axis (the planar model's θ, the 3D model's θy) and the beam inputs acting on it:
+#: what the trajectory plot shows.
+X_AXIS_TILTS = ("theta", "theta_y")
+X_AXIS_INPUTS = ("beam_offset", "beam_tilt", "beam_offset_x", "beam_tilt_x")
 #: Episodes stepped as one batch: the progress bar moves once a batch; memory stays bounded.
 BATCH_EPISODES = 50
 
@@ -68,8 +71,11 @@ def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Ag
 
 def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False) -> dict[str, Any]:
     """One seeded episode: start state, outcome, return, and the trajectory if asked for
-    (rows: t [s], X [m], θ [rad], beam offset d [m], beam tilt ψ [rad])."""
+    (rows: t [s], X [m], θ [rad], beam offset d [m], beam tilt ψ [rad]; in 3D the x axis)."""
+    plant = env.unwrapped.episode_spec.plant
     action_scale = env.unwrapped.episode_spec.action_scale
+    tilt = next(name for name in X_AXIS_TILTS if name in plant.state_names)
+    inputs = [i for i, name in enumerate(plant.input_names) if name in X_AXIS_INPUTS]
     obs, info = env.reset(seed=seed)
     agent.reset()
     start = info["state"]
@@ -81,14 +87,26 @@ def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False)
         total += reward
         done = terminated or truncated
         if trajectory:
-            steps.append((info["t"], info["state"]["x"], info["state"]["theta"],
-                          *np.clip(action, -1, 1) * action_scale))
-    episode = {"seed": seed, **{f"{k}0": start[k] for k in START_KEYS}, "cutoff_s": info["cutoff_s"],
+            steps.append((info["t"], info["state"]["x"], info["state"][tilt],
+                          *(np.clip(action, -1, 1) * action_scale)[inputs]))
+    episode = {"seed": seed, **{f"{k}0": v for k, v in start.items()}, "cutoff_s": info["cutoff_s"],
                "terminal_pointing_rad": info["terminal_pointing_rad"],
                "success": bool(info["is_success"]), "diverged": bool(info["diverged"]), "return": total}
     if trajectory:
         episode["trajectory"] = np.array(steps)
     return episode
+
+
+def start_columns(episode: dict[str, Any]) -> list[str]:
+    """The start-state entries of an episode's record (``x0``, ``vx0``, …: state names + 0)."""
+    return [key for key in episode if key.endswith("0") and key != "seed"]
+
+
+def start_tilt(episode: dict[str, Any]) -> float:
+    """The tilt's magnitude at the start of control [rad] (planar ``|θ|``, 3D ``√(θx² + θy²)``)."""
+    if "theta0" in episode:
+        return abs(episode["theta0"])
+    return math.hypot(episode["theta_x0"], episode["theta_y0"])
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -206,7 +224,7 @@ def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path) -> None:
 
 def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, bins: int = 8) -> None:
     """Success rate in bins of the tilt |θ| at the start of control (at least 10 episodes a bin)."""
-    tilts = np.abs([e["theta0"] for e in next(iter(results.values()))]) * 1e3
+    tilts = np.array([start_tilt(e) for e in next(iter(results.values()))]) * 1e3
     bins = max(1, min(bins, len(tilts) // 10))
     edges = np.quantile(tilts, np.linspace(0, 1, bins + 1))
     which = np.clip(np.searchsorted(edges, tilts, side="right") - 1, 0, bins - 1)
@@ -231,7 +249,7 @@ def write_report(out: Path, env_id: str, config: dict[str, Any], results: dict[s
     report = {"agents": summary, "env": env_id, "config": config, "versions": versions()}
     (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False))
 
-    columns = ["agent", "episode", "seed", *(f"{k}0" for k in START_KEYS), "cutoff_s",
+    columns = ["agent", "episode", "seed", *start_columns(next(iter(results.values()))[0]), "cutoff_s",
                "terminal_pointing_rad", "success", "diverged", "return"]
     with (out / "episodes.csv").open("w", newline="") as file:
         writer = csv.DictWriter(file, columns, extrasaction="ignore")
@@ -285,7 +303,8 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int) -> list[dict[
                 scores.setdefault(key, np.zeros(episodes))[ended] = final[key][ended]
         running &= ~terminated
     envs.close()
-    return [{"seed": seed + i, **{f"{k}0": float(start[i, j]) for j, k in enumerate(START_KEYS)},
+    names = envs.unwrapped.episode_spec.plant.state_names
+    return [{"seed": seed + i, **{f"{k}0": float(start[i, j]) for j, k in enumerate(names)},
              "cutoff_s": float(scores["cutoff_s"][i]), "terminal_pointing_rad": float(scores["terminal_pointing_rad"][i]),
              "success": bool(scores["is_success"][i]), "diverged": bool(scores["diverged"][i]),
              "return": float(returns[i])} for i in range(episodes)]

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from agents.lqr import lqr_gain
+from agents.lqr import lqr_gain, state_weights
 from sail_env.core.spec import EpisodeSpec
 
 #: Process-noise floor per step, relative to the observation scales (model mismatch).
@@ -37,15 +37,16 @@ class LQGAgent:
         self.spec = spec
         model, dt, scale = spec.nominal, spec.dt, spec.state_scale
         self.phi, self.gamma = model.discretize(dt)
-        self.gain = lqr_gain(model, dt, scale, spec.action_scale, input_weight)
+        self.gain = lqr_gain(model, dt, scale, spec.action_scale, input_weight, state_weights(spec))
         dist = spec.disturbances
         a_push, _ = model.push_sensitivity
         push_kick = a_push @ scale * dt
-        process = (dist.beam_jitter_m**2 * np.outer(self.gamma[:, 0], self.gamma[:, 0])
+        jitter = self.gamma[:, list(spec.plant.jitter_inputs)]
+        process = (dist.beam_jitter_m**2 * jitter @ jitter.T
                    + dist.push_noise**2 * np.outer(push_kick, push_kick)
                    + np.diag((MODEL_MISMATCH * scale) ** 2))
         sensor = np.diag(np.maximum(spec.sensor_noise_std, 1e-6 * scale) ** 2)
-        covariance = scipy.linalg.solve_discrete_are(self.phi.T, np.eye(4), process, sensor)
+        covariance = scipy.linalg.solve_discrete_are(self.phi.T, np.eye(len(scale)), process, sensor)
         self.kalman_gain = covariance @ np.linalg.inv(covariance + sensor)
         self.reset()
 
@@ -55,15 +56,15 @@ class LQGAgent:
         self.estimate: np.ndarray | None = None
         self.estimate_step = 0
 
-    def _applied(self, step: int, like: np.ndarray) -> np.ndarray:
+    def _applied(self, step: int, state: np.ndarray) -> np.ndarray:
         """The input acting during ``step``, by the core's delay rule."""
         index = step - int(self.spec.delay_steps(step))
         if index < 0 or not self.sent:
-            return np.zeros_like(like)
+            return np.zeros((*state.shape[:-1], self.gamma.shape[1]))
         return self.sent[min(index, len(self.sent) - 1)]
 
     def _predict(self, state: np.ndarray, step: int) -> np.ndarray:
-        return state @ self.phi.T + self._applied(step, state[..., :2]) @ self.gamma.T
+        return state @ self.phi.T + self._applied(step, state) @ self.gamma.T
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         measured = self.spec.observation_to_state(observation)

@@ -1,6 +1,6 @@
 """lightsail-gym: keep a laser-propelled light sail on its beam.
 
-Importing the package registers the planar task suite with Gymnasium::
+Importing the package registers the task suite (planar and 3D) with Gymnasium::
 
     import gymnasium as gym
     import sail_env  # noqa: F401  (or gym.make("sail_env:LightSail-v0"))
@@ -10,11 +10,12 @@ Importing the package registers the planar task suite with Gymnasium::
 
 from gymnasium.envs.registration import register, registry
 
-from sail_env.tasks import TASKS
+from sail_env.tasks import ENTRY_POINTS, PLANAR_TASKS, RIGID3D_TASKS
 
 __version__ = "0.1.0"
 
-for _task_id, _kwargs in TASKS.items():
-    if _task_id not in registry:
-        register(id=_task_id, entry_point="sail_env.envs.planar:LightSailEnv",
-                 vector_entry_point="sail_env.envs.vector:LightSailVectorEnv", kwargs=_kwargs)
+for _family, _tasks in (("planar", PLANAR_TASKS), ("rigid3d", RIGID3D_TASKS)):
+    for _task_id, _kwargs in _tasks.items():
+        if _task_id not in registry:
+            register(id=_task_id, entry_point=ENTRY_POINTS[_family][0], vector_entry_point=ENTRY_POINTS[_family][1],
+                     kwargs=_kwargs)

@@ -1,4 +1,6 @@
-"""The planar task suite: ids and the keyword arguments that define them.
+"""The task suite: ids and the keyword arguments that define them (:data:`TASKS` holds every id,
+:data:`PLANAR_TASKS` the planar ones, :data:`RIGID3D_TASKS` the 3D ones; ``ENTRY_POINTS`` says
+which env class and vector entry point each family uses).
 
 ``LightSailRealistic-v0`` is what a ground station would face on the deep-dish sail
 (the ±10 % parameter draw keeps ``R < Lc``, so it is never passively unstable):
@@ -31,9 +33,29 @@ REALISTIC_DISTURBANCES = {
     "parameter_spread": 0.1,
 }
 
-TASKS: dict[str, dict] = {
+PLANAR_TASKS: dict[str, dict] = {
     "LightSail-v0": {"config": SEED},
     "LightSailDeepDish-v0": {"config": DEEP_DISH, "start_half_widths": DEEP_DISH_START_HALF_WIDTHS},
     "LightSailRealistic-v0": {"config": DEEP_DISH.replace(control_start_s=10.0),
                               "start_half_widths": DEEP_DISH_START_HALF_WIDTHS, **REALISTIC_DISTURBANCES},
+}
+
+#: The rigid 3D sail (``sail_env.envs.rigid3d``): LightSail3D-v0 is the seed geometry and beam,
+#: a perfect mirror, constant push, no delay, no spin.
+RIGID3D_TASKS: dict[str, dict] = {
+    "LightSail3D-v0": {},
+    "LightSail3DRealistic-v0": {"curvature_radius_m": DEEP_DISH.curvature_radius_m, "absorptivity": 0.1,
+                                "spin_rad_s": 1.0, "control_start_s": 10.0,
+                                "start_half_widths": tuple(w for w in DEEP_DISH_START_HALF_WIDTHS for _ in range(2)),
+                                **REALISTIC_DISTURBANCES,
+                                "sensor_noise_std": tuple(s for s in REALISTIC_DISTURBANCES["sensor_noise_std"]
+                                                          for _ in range(2))},
+}
+
+TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}
+
+#: ``(entry_point, vector_entry_point)`` of each family of tasks.
+ENTRY_POINTS = {
+    "planar": ("sail_env.envs.planar:LightSailEnv", "sail_env.envs.vector:LightSailVectorEnv"),
+    "rigid3d": ("sail_env.envs.rigid3d:LightSail3DEnv", "sail_env.envs.rigid3d:rigid3d_vector_env"),
 }

@@ -51,11 +51,11 @@ class StepResult:
     terminated: np.ndarray  # end of the window (scored) or divergence
     diverged: np.ndarray
     envelope_rad: np.ndarray  # largest |V⊥|/Vz with the applied command held
-    applied: np.ndarray  # (N, 2) beam input that acted during the step [SI]
+    applied: np.ndarray  # (N, m) beam input that acted during the step [SI]
     # Only when an episode terminated (else None): at cut-off; inf if diverged, NaN if still running.
     terminal_pointing_rad: np.ndarray | None = None
     terminal_envelope_rad: np.ndarray | None = None
-    terminal_state: np.ndarray | None = None  # (N, 4), NaN where not scored
+    terminal_state: np.ndarray | None = None  # (N, n), NaN where not scored
 
 
 class EpisodeCore:
@@ -70,10 +70,10 @@ class EpisodeCore:
     def __init__(self, spec: EpisodeSpec, num_envs: int) -> None:
         self.spec, self.num_envs = spec, num_envs
         plant, n, dist = spec.plant, num_envs, spec.disturbances
-        self.params = plant.params(np.ones((n, 5)))
+        self.params = plant.params(np.ones((n, plant.n_factors)))
         self.rngs: list[np.random.Generator | None] = [None] * n
-        self.x = np.zeros((n, 4))
-        self.last_command = np.zeros((n, 2))
+        self.x = np.zeros((n, plant.n_states))
+        self.last_command = np.zeros((n, plant.n_inputs))
         self.step_index = np.zeros(n, dtype=np.int64)
         self.cutoff_s = np.full(n, spec.config.beam_cutoff_s)
         self.speed_at_cutoff = plant.speed(self.params, self.cutoff_s)
@@ -82,14 +82,14 @@ class EpisodeCore:
         if self.delayed:
             self.lag0 = np.zeros(n, dtype=np.int64)
             self.delay = np.zeros((n, spec.n_steps + spec.max_delay + 2), dtype=np.int64)
-            self.commands = np.zeros((n, max(spec.history_length, spec.max_delay + 1) + 1, 2))
-            self.states = np.zeros((n, spec.max_delay + 2, 4))
+            self.commands = np.zeros((n, max(spec.history_length, spec.max_delay + 1) + 1, plant.n_inputs))
+            self.states = np.zeros((n, spec.max_delay + 2, plant.n_states))
         # Standard normals of the window, drawn at reset: jitter and push per step, sensor per observation.
         # Steps run from lag0 before control to the last command's arrival: at most n + 2 max_delay.
         self.noise_steps = spec.n_steps + 2 * spec.max_delay + 2
-        self.jitter = np.zeros((n, self.noise_steps)) if dist.beam_jitter_m else None
+        self.jitter = np.zeros((n, self.noise_steps, len(plant.jitter_inputs))) if dist.beam_jitter_m else None
         self.push = np.zeros((n, self.noise_steps)) if dist.push_noise else None
-        self.sensor = np.zeros((n, spec.n_steps + 1, 4)) if dist.any_sensor_noise else None
+        self.sensor = np.zeros((n, spec.n_steps + 1, plant.n_states)) if dist.any_sensor_noise else None
         self._rows = np.arange(n)
 
     # ------------------------------------------------------------------ reset
@@ -97,17 +97,18 @@ class EpisodeCore:
               initial_states: np.ndarray | None = None) -> None:
         """Start new episodes in environments ``index``, each drawing from its generator ``rngs[i]``.
 
-        ``initial_states`` (k, 4) replaces the drawn launch states.
+        ``initial_states`` (k, n) replaces the drawn launch states.
         """
         spec, plant, dist = self.spec, self.spec.plant, self.spec.disturbances
-        k = len(index)
-        factors, cutoff, launch = np.ones((k, 5)), np.full(k, spec.config.beam_cutoff_s), np.empty((k, 4))
+        k, n_states = len(index), plant.n_states
+        factors, cutoff = np.ones((k, plant.n_factors)), np.full(k, spec.config.beam_cutoff_s)
+        launch, rest = np.empty((k, n_states)), np.zeros((k, plant.n_inputs))
         for i, rng in enumerate(rngs):
             factors[i] = plant.draw(rng)
             if dist.cutoff_jitter_s:
                 cutoff[i] += sample_uniform(rng, -dist.cutoff_jitter_s, dist.cutoff_jitter_s, 1)[0]
             if initial_states is None:
-                launch[i] = sample_uniform(rng, -spec.start_half_widths, spec.start_half_widths, 4)
+                launch[i] = sample_uniform(rng, -spec.start_half_widths, spec.start_half_widths, n_states)
         if initial_states is not None:
             launch[:] = initial_states
         params = plant.params(factors)
@@ -125,17 +126,17 @@ class EpisodeCore:
         pre_normals = None
         if normals is not None:
             pre, jitter, push, sensor = np.split(normals, np.cumsum(sizes)[:-1], axis=1)
-            pre_normals = pre.reshape(k, -1, 4)
+            pre_normals = pre.reshape(k, -1, n_states)
             if self.jitter is not None:
-                self.jitter[index] = jitter
+                self.jitter[index] = jitter.reshape(k, self.noise_steps, -1)
             if self.push is not None:
                 self.push[index] = push
             if self.sensor is not None:
-                self.sensor[index] = sensor.reshape(k, -1, 4)
+                self.sensor[index] = sensor.reshape(k, -1, n_states)
 
         x = launch
         if np.any(pre_control > 0):
-            x, _ = plant.coast(params, launch, np.zeros((k, 2)), pre_control, pre_normals)
+            x, _ = plant.coast(params, launch, rest, pre_control, pre_normals)
         self.step_index[index] = 0
         self.finished[index] = False
         if self.delayed:
@@ -146,13 +147,13 @@ class EpisodeCore:
             # The light-delayed first observation shows the state lag0 steps before control.
             for s in range(int(lag0.max(initial=0))):
                 moving = s < lag0
-                x = np.where(moving[:, None], self._physics_step(index, params, x, np.zeros((k, 2)), s), x)
+                x = np.where(moving[:, None], self._physics_step(index, params, x, rest, s), x)
                 self.states[index[moving], s + 1] = x[moving]
         self.x[index] = x
 
     def _normal_sizes(self, pre_pieces: int) -> tuple[int, int, int, int]:
         """Standard normals per environment: pre-control, jitter, push, sensor."""
-        return (4 * pre_pieces, 0 if self.jitter is None else self.noise_steps,
+        return (self.spec.plant.n_states * pre_pieces, 0 if self.jitter is None else self.jitter[0].size,
                 0 if self.push is None else self.noise_steps, 0 if self.sensor is None else self.sensor[0].size)
 
     # ------------------------------------------------------------------ step
@@ -161,7 +162,7 @@ class EpisodeCore:
         """One plant step of environments ``index`` with the per-step noise of column ``noise_column``."""
         if self.jitter is not None:
             u = u.copy()
-            u[:, 0] += self.spec.disturbances.beam_jitter_m * self.jitter[index, noise_column]
+            u[:, list(self.spec.plant.jitter_inputs)] += self.spec.disturbances.beam_jitter_m * self.jitter[index, noise_column]
         push = None if self.push is None else self.spec.disturbances.push_noise * self.push[index, noise_column]
         return self.spec.plant.step(params, x, u, push)
 
@@ -173,7 +174,7 @@ class EpisodeCore:
         return np.where((sent >= 0)[:, None], command, 0.0)
 
     def step(self, action: np.ndarray) -> StepResult:
-        """Advance every environment by one control step with ``action`` (N, 2) in [-1, 1] (clipped)."""
+        """Advance every environment by one control step with ``action`` (N, m) in [-1, 1] (clipped)."""
         spec, plant = self.spec, self.spec.plant
         command = np.clip(action, -1.0, 1.0) * spec.action_scale
         rows, step = self._rows, self.step_index
@@ -205,7 +206,7 @@ class EpisodeCore:
         """Coast the environments whose window has ended and score them; penalise divergence."""
         plant, reward, diverged = self.spec.plant, result.reward, result.diverged
         pointing, terminal_envelope = np.full(self.num_envs, np.nan), np.full(self.num_envs, np.nan)
-        terminal_state = np.full((self.num_envs, 4), np.nan)
+        terminal_state = np.full((self.num_envs, plant.n_states), np.nan)
         scored = np.flatnonzero(result.terminated & ~diverged)
         if len(scored):
             final, final_input, coast_diverged = self._coast(scored)
@@ -243,7 +244,7 @@ class EpisodeCore:
         normals = None
         if plant.noisy:
             pieces = int(plant.coast_pieces(params, remaining).max())
-            normals = np.stack([self.rngs[i].standard_normal((pieces, 4)) for i in index])
+            normals = np.stack([self.rngs[i].standard_normal((pieces, plant.n_states)) for i in index])
         final, diverged = plant.coast(params, x, held, remaining, normals)
         return final, held, diverged
 

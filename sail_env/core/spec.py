@@ -12,14 +12,16 @@ import numpy as np
 from sail_env.core.delay import delay_steps
 from sail_env.physics.config import PRESETS, SailConfig, check_below_light_speed, real_number
 from sail_env.physics.mission import one_way_light_delay_s
-from sail_env.physics.planar import STATE_NAMES
-from sail_env.physics.plant import MAX_TILT_RAD, PlanarPlant
+from sail_env.physics.plant import PlanarPlant
+from sail_env.physics.plant3d import RigidFlight, RigidPlant
 
 #: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
 DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
 #: Observation scales: the state is divided by these (rates by the model's fastest rate too).
 POSITION_SCALE_M = 1e-2
 TILT_SCALE_RAD = 1e-3
+#: The plant of each kind of configuration.
+PLANTS = {SailConfig: PlanarPlant, RigidFlight: RigidPlant}
 #: Round-off allowed between times computed as ``start + steps · dt`` and configured times.
 TIME_TOLERANCE_S = 1e-9
 #: Largest relative push noise per step: a laser cannot pull, and beyond 0.25 a 4σ step would
@@ -30,24 +32,24 @@ MAX_PUSH_NOISE = 0.25
 MAX_PARAMETER_SPREAD = 0.5
 
 
-def four_finite_nonnegative(values: object, name: str) -> tuple[float, float, float, float]:
-    """Four finite real numbers ``>= 0`` (one per state component ``X, Vx, θ, ω``), or ``ValueError``."""
+def finite_nonnegative(values: object, name: str, count: int | None = None) -> tuple[float, ...]:
+    """Finite real numbers ``>= 0`` (``count`` of them if given: one per state), or ``ValueError``."""
     items = list(values) if isinstance(values, (Sequence, np.ndarray)) and not isinstance(values, str) else None
-    if items is None or len(items) != 4:
-        raise ValueError(f"{name} must be 4 real numbers (X, Vx, θ, ω), got {values!r}")
+    if items is None or (count is not None and len(items) != count):
+        raise ValueError(f"{name} must be {count or 'a sequence of'} real numbers, got {values!r}")
     numbers = tuple(real_number(v, f"{name}[{i}]") for i, v in enumerate(items))
     if not all(math.isfinite(v) and v >= 0 for v in numbers):
-        raise ValueError(f"{name} must be 4 finite values >= 0, got {numbers}")
+        raise ValueError(f"{name} must be finite values >= 0, got {numbers}")
     return numbers
 
 
-def _resolve_config(config: object) -> SailConfig:
-    """A :class:`SailConfig` from the ``config`` argument: one, or a preset's name."""
-    if isinstance(config, SailConfig):
+def _resolve_config(config: object) -> SailConfig | RigidFlight:
+    """The ``config`` argument: a :class:`SailConfig`, a :class:`RigidFlight` or a preset's name."""
+    if type(config) in PLANTS:
         return config
     if isinstance(config, str) and config in PRESETS:
         return PRESETS[config]
-    raise ValueError(f"config must be a SailConfig or one of {sorted(PRESETS)}, got {config!r} "
+    raise ValueError(f"config must be a SailConfig, a RigidFlight or one of {sorted(PRESETS)}, got {config!r} "
                      f"(SailConfig(**fields) builds one from a dict)")
 
 
@@ -57,8 +59,8 @@ class Disturbances:
 
     Attributes:
         sensor_noise_std: Standard deviation of the measurement of each state component
-            ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``, white, per observation (any finite size:
-            the observation saturates at ±1e3).
+            (planar ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``; one per state of the plant),
+            white, per observation (any finite size: the observation saturates at ±1e3).
         beam_jitter_m: Standard deviation of the beam's landing offset per control step
             (white, held for the step); over the coast the same spectral density
             ``σ² dt`` acts as continuous white noise. At most the aperture radius.
@@ -85,7 +87,7 @@ class Disturbances:
     parameter_spread: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "sensor_noise_std", four_finite_nonnegative(self.sensor_noise_std, "sensor_noise_std"))
+        object.__setattr__(self, "sensor_noise_std", finite_nonnegative(self.sensor_noise_std, "sensor_noise_std"))
         for name in ("beam_jitter_m", "push_noise", "cutoff_jitter_s", "parameter_spread"):
             value = real_number(getattr(self, name), name)
             if not (math.isfinite(value) and value >= 0):
@@ -110,20 +112,22 @@ class EpisodeSpec:
 
     Attributes:
         config: The nominal :class:`SailConfig`.
-        plant: The batched physics (:class:`~sail_env.physics.plant.PlanarPlant`).
+        plant: The batched physics: :class:`~sail_env.physics.plant.PlanarPlant` for a
+            :class:`SailConfig`, :class:`~sail_env.physics.plant3d.RigidPlant` for a
+            :class:`~sail_env.physics.plant3d.RigidFlight`.
         nominal: The nominal linear model (what a controller designs on).
         disturbances: The :class:`Disturbances`.
         dt, n_steps: Control step [s] and number of steps in the control window.
-        action_scale: Physical beam input at action +1, ``(d [m], ψ [rad])``.
+        action_scale: Physical input at action +1 (planar ``(d [m], ψ [rad])``).
         state_scale: Divides the SI state in the observation.
-        start_half_widths: Uniform start distribution at launch, ``(X, Vx, θ, ω)``.
+        start_half_widths: Uniform start distribution at launch, one per state (planar ``(X, Vx, θ, ω)``).
         history_length: Commands shown in the observation (the largest round trip with
             light delay, with a step of margin each way for the parameter draw; else 0).
         max_delay: Largest one-way delay [steps] any parameter draw can see up to the
             last command's arrival (sizes the core's buffers).
     """
 
-    def __init__(self, config: SailConfig | str = "seed", *, max_beam_offset_m: float = 0.02,
+    def __init__(self, config: SailConfig | RigidFlight | str = "seed", *, max_beam_offset_m: float = 0.02,
                  max_beam_tilt_rad: float = 2e-3,
                  start_half_widths: Sequence[float] = DEFAULT_START_HALF_WIDTHS,
                  disturbances: Disturbances = Disturbances()) -> None:
@@ -133,21 +137,26 @@ class EpisodeSpec:
         for name, value in zip(("max_beam_offset_m", "max_beam_tilt_rad"), scales):
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
-        widths = four_finite_nonnegative(start_half_widths, "start_half_widths")
         self.config = config
         self.disturbances = disturbances
-        self.plant = PlanarPlant(config, disturbances.parameter_spread, disturbances.beam_jitter_m,
-                                 disturbances.push_noise)
+        self.plant = PLANTS[type(config)](config, disturbances.parameter_spread, disturbances.beam_jitter_m,
+                                          disturbances.push_noise)
+        n = self.plant.n_states
+        widths = finite_nonnegative(start_half_widths, "start_half_widths", n)
+        if disturbances.any_sensor_noise and len(disturbances.sensor_noise_std) != n:
+            raise ValueError(f"sensor_noise_std must be {n} values (one per state), got {disturbances.sensor_noise_std}")
         self.nominal = self.plant.nominal
         self.dt = config.control_step_s
         self.n_steps = config.control_steps
-        self.action_scale = np.array(scales)
+        physical = {"m": scales[0], "rad": scales[1], **self.plant.input_ranges}
+        self.action_scale = np.array([physical[unit] for unit in self.plant.input_units])
         self.start_half_widths = np.array(widths)
-        self.sensor_noise_std = np.array(disturbances.sensor_noise_std)
+        self.sensor_noise_std = np.array(disturbances.sensor_noise_std) if disturbances.any_sensor_noise else np.zeros(n)
         rate = self.plant.rate_scale()
-        self.state_scale = np.array([POSITION_SCALE_M, POSITION_SCALE_M * rate, TILT_SCALE_RAD, TILT_SCALE_RAD * rate])
-        spread = disturbances.parameter_spread
-        fastest = config.axial_acceleration_m_s2 / (1 - spread)
+        scales = {"m": POSITION_SCALE_M, "m/s": POSITION_SCALE_M * rate, "rad": TILT_SCALE_RAD,
+                  "rad/s": TILT_SCALE_RAD * rate}
+        self.state_scale = np.array([scales[unit] for unit in self.plant.state_units])
+        fastest = self.plant.max_acceleration_m_s2
         check_below_light_speed(fastest, config.beam_cutoff_s + disturbances.cutoff_jitter_s,
                                 "push_force_n and beam_cutoff_s (fastest draw of parameter_spread, latest of "
                                 "cutoff_jitter_s)")
@@ -159,10 +168,7 @@ class EpisodeSpec:
         else:
             self.history_length = self.max_delay = 0
         self._check_cutoff()
-        # Inside the beam and the small-angle regime for every draw, and not leaving them by its own speed in one step.
-        tilt = min(config.aperture_radius_m / (config.com_distance_m * (1 + spread)), MAX_TILT_RAD)
-        self.start_limits = np.array([config.aperture_radius_m, config.aperture_radius_m / self.dt, tilt,
-                                      tilt / self.dt])
+        self.start_limits = self.plant.start_limits()
         self.check_start(self.start_half_widths, "start_half_widths")
 
     def _check_round_trip(self, fastest_m_s2: float) -> None:
@@ -178,14 +184,15 @@ class EpisodeSpec:
                 f"(control_start_s) or lengthen control_window_s")
 
     def check_start(self, states: np.ndarray, name: str) -> None:
-        """Refuse start states (..., 4) beyond :attr:`start_limits`, naming ``name`` and the limit."""
-        beyond = np.abs(np.asarray(states)) > self.start_limits
+        """Refuse start states (..., n) beyond :attr:`start_limits`, naming ``name`` and the limit."""
+        n = self.plant.n_states
+        size = np.abs(np.asarray(states)).reshape(-1, n)
+        beyond = size > self.start_limits
         if beyond.any():
-            k = int(np.flatnonzero(beyond.reshape(-1, 4).any(axis=0))[0])
+            k = int(np.flatnonzero(beyond.any(axis=0))[0])
             raise ValueError(
-                f"{name}: |{STATE_NAMES[k]}| must be <= {self.start_limits[k]:.4g} (inside the beam and the "
-                f"small-angle regime, and not leaving them within one step), got "
-                f"{np.abs(np.asarray(states)).reshape(-1, 4)[:, k].max():.4g}")
+                f"{name}: |{self.plant.state_names[k]}| must be <= {self.start_limits[k]:.4g} (inside the beam and "
+                f"the small-angle regime, and not leaving them within one step), got {size[:, k].max():.4g}")
 
     def _check_cutoff(self) -> None:
         """The earliest cut-off must come after the last command has reached the sail (to within
@@ -199,7 +206,7 @@ class EpisodeSpec:
                 f"{last_arrival:.6g} s")
 
     @classmethod
-    def from_env_kwargs(cls, config: SailConfig | str, max_beam_offset_m: float, max_beam_tilt_rad: float,
+    def from_env_kwargs(cls, config: SailConfig | RigidFlight | str, max_beam_offset_m: float, max_beam_tilt_rad: float,
                         start_half_widths: Sequence[float], **disturbances) -> EpisodeSpec:
         """The spec of an env's keyword arguments (the disturbances by :class:`Disturbances`' field names)."""
         return cls(config, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
@@ -207,20 +214,20 @@ class EpisodeSpec:
 
     @property
     def observation_size(self) -> int:
-        return 5 + 2 * self.history_length
+        return self.plant.n_states + 1 + self.plant.n_inputs * self.history_length
 
     def delay_steps(self, step: np.ndarray | int, acceleration_m_s2: np.ndarray | float | None = None) -> np.ndarray:
         """One-way light delay in steps at control ``step`` (zero without light delay); see
         :func:`sail_env.core.delay.delay_steps`. The nominal acceleration unless given."""
         if not self.disturbances.light_delay:
             return np.zeros(np.shape(step), dtype=np.int64)
-        accel = self.config.axial_acceleration_m_s2 if acceleration_m_s2 is None else acceleration_m_s2
+        accel = self.plant.acceleration_m_s2 if acceleration_m_s2 is None else acceleration_m_s2
         return delay_steps(accel, self.config.control_start_s, self.dt, step)
 
     def observation_to_state(self, observation: np.ndarray) -> np.ndarray:
         """The (possibly delayed and noisy) measured SI state inside an observation."""
-        return np.asarray(observation[..., :4], dtype=np.float64) * self.state_scale
+        return np.asarray(observation[..., :self.plant.n_states], dtype=np.float64) * self.state_scale
 
     def input_to_action(self, beam_input: np.ndarray) -> np.ndarray:
-        """Normalised action for a physical beam input ``(d [m], ψ [rad])``, clipped."""
+        """Normalised action for a physical input (planar ``(d [m], ψ [rad])``), clipped."""
         return np.clip(np.asarray(beam_input) / self.action_scale, -1.0, 1.0).astype(np.float32)

@@ -13,7 +13,6 @@ from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
 from sail_env.envs.rendering import SailRenderer
 from sail_env.physics.config import SailConfig, real_number
-from sail_env.physics.planar import STATE_NAMES
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 _ONE = np.zeros(1, dtype=np.int64)
@@ -139,14 +138,18 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         light_delay: bool = False,
         parameter_spread: float = 0.0,
     ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
-        self.episode_spec = spec = EpisodeSpec.from_env_kwargs(
+        self._start(EpisodeSpec.from_env_kwargs(
             config, max_beam_offset_m, max_beam_tilt_rad, start_half_widths, sensor_noise_std=sensor_noise_std,
             beam_jitter_m=beam_jitter_m, push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
-            light_delay=light_delay, parameter_spread=parameter_spread)
+            light_delay=light_delay, parameter_spread=parameter_spread), render_mode)
+
+    def _start(self, spec: EpisodeSpec, render_mode: str | None) -> None:
+        """Set up the spaces and the core of ``spec`` (every task's env is this one with its spec)."""
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self.episode_spec = spec
         self.render_mode = render_mode
-        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (spec.plant.n_inputs,), np.float32)
         self.observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (spec.observation_size,),
                                             np.float32)
         self.core = EpisodeCore(spec, 1)
@@ -158,7 +161,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         super().reset(seed=seed)
         initial = (options or {}).get("initial_state")
         if initial is not None:
-            initial = initial_state(initial)[None]
+            initial = initial_state(initial, self.episode_spec)[None]
             self.episode_spec.check_start(initial, "initial_state")
         self.core.reset(_ONE, [self.np_random], initial)
         if self.render_mode is not None:
@@ -166,9 +169,9 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         return self.core.observe()[0], self._info()
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        action = np.asarray(action)
-        if action.shape != (2,) or action.dtype.kind not in "fiu":
-            raise ValueError(f"action must be 2 real numbers (shape (2,)), got {action!r}")
+        action, size = np.asarray(action), self.action_space.shape[0]
+        if action.shape != (size,) or action.dtype.kind not in "fiu":
+            raise ValueError(f"action must be {size} real numbers (shape ({size},)), got {action!r}")
         if not np.isfinite(action).all():
             raise ValueError(f"action must be finite, got {action}")
         if self.core.finished[0]:
@@ -188,7 +191,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
                 info.update(terminal_pointing_rad=pointing,
                             terminal_envelope_rad=float(result.terminal_envelope_rad[0]),
                             is_success=pointing <= POINTING_TOLERANCE_RAD, diverged=False,
-                            cutoff_s=float(self.core.cutoff_s[0]), terminal_state=_named(result.terminal_state[0]))
+                            cutoff_s=float(self.core.cutoff_s[0]), terminal_state=self._named(result.terminal_state[0]))
         if self.render_mode == "human":
             self.render()
         return result.observation[0], float(result.reward[0]), terminated, False, info
@@ -207,26 +210,38 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
             self._renderer.close()
             self._renderer = None
 
+    @property
+    def dt(self) -> float:
+        """The control step [s]."""
+        return self.episode_spec.dt
+
     def _time(self) -> float:
         spec = self.episode_spec
         return spec.config.control_start_s + int(self.core.step_index[0]) * spec.dt
 
     def _info(self) -> dict[str, Any]:
-        return {"state": _named(self.core.x[0]), "t": self._time()}
+        return {"state": self._named(self.core.x[0]), "t": self._time()}
+
+    def _named(self, state: np.ndarray) -> dict[str, float]:
+        return dict(zip(self.episode_spec.plant.state_names, state.tolist()))
 
 
-def initial_state(given: Mapping[str, float]) -> np.ndarray:
-    """The launch state from ``options["initial_state"]``: a dict of real numbers (missing keys are zero)."""
+def initial_state(given: Mapping[str, float], spec: EpisodeSpec) -> np.ndarray:
+    """The launch state from ``options["initial_state"]``: a dict of real numbers (missing keys are zero).
+
+    Keys are the plant's state names, and any of its ``fixed_state`` (quantities the task
+    fixes, such as the 3D sail's spin), which must then have the task's value.
+    """
+    names, fixed = spec.plant.state_names, getattr(spec.plant, "fixed_state", {})
     if not isinstance(given, Mapping):
-        raise ValueError(f"initial_state must be a dict with keys among {STATE_NAMES}, got {given!r}")
-    unknown = set(given) - set(STATE_NAMES)
+        raise ValueError(f"initial_state must be a dict with keys among {(*names, *fixed)}, got {given!r}")
+    unknown = set(given) - set(names) - set(fixed)
     if unknown:
-        raise ValueError(f"initial_state keys must be among {STATE_NAMES}, got {sorted(unknown)}")
-    state = np.array([real_number(given.get(name, 0.0), f"initial_state[{name!r}]") for name in STATE_NAMES])
+        raise ValueError(f"initial_state keys must be among {(*names, *fixed)}, got {sorted(unknown)}")
+    for key, value in fixed.items():
+        if key in given and real_number(given[key], f"initial_state[{key!r}]") != value:
+            raise ValueError(f"initial_state[{key!r}] is fixed by the task at {value}, got {given[key]}")
+    state = np.array([real_number(given.get(name, 0.0), f"initial_state[{name!r}]") for name in names])
     if not np.all(np.isfinite(state)):
         raise ValueError(f"initial_state must be finite, got {dict(given)}")
     return state
-
-
-def _named(state: np.ndarray) -> dict[str, float]:
-    return dict(zip(STATE_NAMES, state.tolist()))

@@ -1,10 +1,12 @@
-"""``LightSailVectorEnv``: N planar light sails stepped as one NumPy batch.
+"""``LightSailVectorEnv``: N light sails stepped as one NumPy batch (planar, or any task's spec
+through :meth:`LightSailVectorEnv.from_spec`).
 
 The same episode core (:class:`~sail_env.core.EpisodeCore`) as :class:`LightSailEnv`,
 with N environments: environment ``i`` seeded with ``seed + i`` plays exactly the
-episodes a ``LightSailEnv`` seeded with ``seed + i`` plays, to round-off. Every planar
-task and keyword is supported (light delay with per-environment command queues, sensor
-noise, jitter, push noise, cut-off jitter, parameter spread with per-environment models).
+episodes a ``LightSailEnv`` (or ``LightSail3DEnv``) seeded with ``seed + i`` plays, to
+round-off. Every task and keyword is supported (light delay with per-environment command
+queues, sensor noise, jitter, push noise, cut-off jitter, parameter spread with
+per-environment models); the 3D ids reach it through ``sail_env.envs.rigid3d.rigid3d_vector_env``.
 
     envs = gym.make_vec("LightSail-v0", num_envs=1024, vectorization_mode="vector_entry_point")
 
@@ -54,17 +56,27 @@ class LightSailVectorEnv(VectorEnv):
         light_delay: bool = False,
         parameter_spread: float = 0.0,
     ) -> None:
+        self._start(EpisodeSpec.from_env_kwargs(
+            config, max_beam_offset_m, max_beam_tilt_rad, start_half_widths, sensor_noise_std=sensor_noise_std,
+            beam_jitter_m=beam_jitter_m, push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
+            light_delay=light_delay, parameter_spread=parameter_spread), num_envs, render_mode)
+
+    @classmethod
+    def from_spec(cls, spec: EpisodeSpec, num_envs: int = 1, render_mode: str | None = None) -> LightSailVectorEnv:
+        """N episodes of any task's :class:`EpisodeSpec` (how the 3D tasks get their vector env)."""
+        envs = cls.__new__(cls)
+        envs._start(spec, num_envs, render_mode)
+        return envs
+
+    def _start(self, spec: EpisodeSpec, num_envs: int, render_mode: str | None) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if render_mode is not None:
             raise ValueError(f"LightSailVectorEnv does not render; render_mode must be None, got {render_mode!r}")
-        self.episode_spec = spec = EpisodeSpec.from_env_kwargs(
-            config, max_beam_offset_m, max_beam_tilt_rad, start_half_widths, sensor_noise_std=sensor_noise_std,
-            beam_jitter_m=beam_jitter_m, push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
-            light_delay=light_delay, parameter_spread=parameter_spread)
+        self.episode_spec = spec
         self.num_envs = int(num_envs)
         self.render_mode = None
-        self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (spec.plant.n_inputs,), np.float32)
         self.single_observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT,
                                                    (spec.observation_size,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -79,7 +91,7 @@ class LightSailVectorEnv(VectorEnv):
         """Reset every environment; ``seed`` an int seeds environment ``i`` with ``seed + i``.
 
         ``options={"initial_state": {...}}`` starts every environment from that state
-        (``LightSailEnv``'s keys), ``{"initial_state": array (N, 4)}`` each from its row.
+        (``LightSailEnv``'s keys), ``{"initial_state": array (N, n)}`` each from its row.
         """
         if seed is None:
             seeds: Sequence[int | None] = [None] * self.num_envs
@@ -92,13 +104,13 @@ class LightSailVectorEnv(VectorEnv):
         super().reset(seed=seeds[0])
         if self._rngs is None or seed is not None:
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        given = (options or {}).get("initial_state")
+        given, n = (options or {}).get("initial_state"), self.episode_spec.plant.n_states
         if isinstance(given, Mapping):
-            given = np.tile(initial_state(given), (self.num_envs, 1))
+            given = np.tile(initial_state(given, self.episode_spec), (self.num_envs, 1))
         elif given is not None:
             given = np.asarray(given)
-            if given.shape != (self.num_envs, 4) or given.dtype.kind not in "fiu" or not np.all(np.isfinite(given)):
-                raise ValueError(f"initial_state must be a dict or a finite real array of shape ({self.num_envs}, 4), "
+            if given.shape != (self.num_envs, n) or given.dtype.kind not in "fiu" or not np.all(np.isfinite(given)):
+                raise ValueError(f"initial_state must be a dict or a finite real array of shape ({self.num_envs}, {n}), "
                                  f"got {given.dtype} {given.shape}")
             given = given.astype(np.float64)
         if given is not None:
@@ -108,8 +120,8 @@ class LightSailVectorEnv(VectorEnv):
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         actions = np.asarray(actions)
-        if actions.shape != (self.num_envs, 2) or actions.dtype.kind not in "fiu":
-            raise ValueError(f"actions must be real numbers of shape ({self.num_envs}, 2), got {actions.shape}")
+        if actions.shape != self.action_space.shape or actions.dtype.kind not in "fiu":
+            raise ValueError(f"actions must be real numbers of shape {self.action_space.shape}, got {actions.shape}")
         if not np.isfinite(actions).all():
             raise ValueError("actions must be finite")
         if self._rngs is None:

@@ -58,23 +58,31 @@ class WhiteNoise:
         return cls(jitter_std_m**2 * dt, push_std**2 * dt)
 
 
-def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise) -> np.ndarray:
-    """The 25x25 matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``), batched over
-    the leading axes of ``a`` (..., 4, 4), ``b`` (..., 4, 2) and ``action`` (..., 2)."""
-    a_push, b_push = push_sensitivity(a, b)
+def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
+                     push: tuple[np.ndarray, np.ndarray] | None = None,
+                     jitter_inputs: tuple[int, ...] = (0,)) -> np.ndarray:
+    """The ``(n+1)² × (n+1)²`` matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``),
+    batched over the leading axes of ``a`` (..., n, n), ``b`` (..., n, m) and ``action`` (..., m).
+
+    ``push`` is ``(∂A/∂ln F, ∂B/∂ln F)``, by default the planar model's; the beam jitter acts,
+    independently and with the same PSD, on each input column in ``jitter_inputs``.
+    """
+    a_push, b_push = push_sensitivity(a, b) if push is None else push
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
-    drift = np.zeros((*batch, 5, 5))
-    drift[..., :4, :4] = a
-    drift[..., :4, 4] = np.einsum("...ij,...j->...i", b, action)
-    mult = np.zeros((*batch, 5, 5))
-    mult[..., :4, :4] = a_push
-    mult[..., :4, 4] = np.einsum("...ij,...j->...i", b_push, action)
+    n = a.shape[-1]
+    drift = np.zeros((*batch, n + 1, n + 1))
+    drift[..., :n, :n] = a
+    drift[..., :n, n] = np.einsum("...ij,...j->...i", b, action)
+    mult = np.zeros((*batch, n + 1, n + 1))
+    mult[..., :n, :n] = a_push
+    mult[..., :n, n] = np.einsum("...ij,...j->...i", b_push, action)
     drift = drift + 0.5 * noise.push_psd_s * mult @ mult
-    eye = np.eye(5)
+    eye = np.eye(n + 1)
     gen = (_kron(drift, eye) + _kron(eye, drift)) + noise.push_psd_s * _kron(mult, mult)
-    jitter = np.zeros((*batch, 5, 5))
-    jitter[..., :4, :4] = noise.beam_jitter_psd_m2s * b[..., :, None, 0] * b[..., None, :, 0]
-    gen[..., :, 24] += jitter.reshape(*batch, 25)
+    jitter = np.zeros((*batch, n + 1, n + 1))
+    for column in jitter_inputs:
+        jitter[..., :n, :n] += noise.beam_jitter_psd_m2s * b[..., :, None, column] * b[..., None, :, column]
+    gen[..., :, -1] += jitter.reshape(*batch, (n + 1) ** 2)
     return gen
 
 
@@ -83,7 +91,7 @@ def moment_growth_rate(a: np.ndarray, b: np.ndarray, noise: WhiteNoise) -> np.nd
     the largest real part of the moment generator's eigenvalues. Multiplicative push noise makes
     the second moment grow even where the noise-free sail only oscillates (parametric excitation),
     so a long noisy propagation must be split by this rate, not the noise-free one."""
-    generator = moment_generator(a, b, np.zeros((*a.shape[:-2], 2)), noise)
+    generator = moment_generator(a, b, np.zeros((*a.shape[:-2], b.shape[-1])), noise)
     return 0.5 * np.linalg.eigvals(generator).real.max(axis=-1)
 
 
@@ -94,20 +102,21 @@ def _kron(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def second_moment(mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """``E[x xᵀ]`` of the augmented state ``x = (s, 1)``, flattened (..., 25)."""
-    batch = mean.shape[:-1]
-    second = np.zeros((*batch, 5, 5))
-    second[..., :4, :4] = cov + mean[..., :, None] * mean[..., None, :]
-    second[..., :4, 4] = second[..., 4, :4] = mean
-    second[..., 4, 4] = 1.0
-    return second.reshape(*batch, 25)
+    """``E[x xᵀ]`` of the augmented state ``x = (s, 1)``, flattened (..., (n + 1)²)."""
+    batch, n = mean.shape[:-1], mean.shape[-1]
+    second = np.zeros((*batch, n + 1, n + 1))
+    second[..., :n, :n] = cov + mean[..., :, None] * mean[..., None, :]
+    second[..., :n, n] = second[..., n, :n] = mean
+    second[..., n, n] = 1.0
+    return second.reshape(*batch, (n + 1) ** 2)
 
 
 def mean_and_covariance(second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverse of :func:`second_moment` (the covariance symmetrised against round-off)."""
-    second = second.reshape(*second.shape[:-1], 5, 5)
-    mean = second[..., :4, 4].copy()
-    cov = second[..., :4, :4] - mean[..., :, None] * mean[..., None, :]
+    n = round(np.sqrt(second.shape[-1])) - 1
+    second = second.reshape(*second.shape[:-1], n + 1, n + 1)
+    mean = second[..., :n, n].copy()
+    cov = second[..., :n, :n] - mean[..., :, None] * mean[..., None, :]
     return mean, 0.5 * (cov + np.swapaxes(cov, -1, -2))
 
 

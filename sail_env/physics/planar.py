@@ -36,7 +36,7 @@ import functools
 
 import numpy as np
 from sail_env.physics.config import SailConfig
-from sail_env.physics.linear import zoh_discretize
+from sail_env.physics.linear import LinearModel
 
 #: Centroid factor of the lit lens between a flat-top beam and the aperture (seed eq 14).
 OVERLAP_CENTROID_FACTOR = 0.5
@@ -44,8 +44,6 @@ OVERLAP_CENTROID_FACTOR = 0.5
 STATE_NAMES = ("x", "vx", "theta", "omega")
 INPUT_NAMES = ("beam_offset", "beam_tilt")
 X, VX, THETA, OMEGA = range(4)
-#: Durations whose exact step :meth:`PlanarModel.discretize` keeps.
-DISCRETIZE_CACHE_SIZE = 4
 
 
 class StabilityKind(str, enum.Enum):
@@ -73,15 +71,12 @@ class Stability:
     frequencies: tuple[float, ...]
 
 
-class PlanarModel:
+class PlanarModel(LinearModel):
     """``ds/dt = A s + B u`` for one :class:`SailConfig` (one model, many consumers)."""
 
     def __init__(self, config: SailConfig) -> None:
         self.config = config
-        self.A, self.B = system_matrices(**matrix_parameters(config))
-        self.A.setflags(write=False)
-        self.B.setflags(write=False)
-        self._discretized: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        super().__init__(*system_matrices(**matrix_parameters(config)))
 
     @property
     def push_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
@@ -114,38 +109,6 @@ class PlanarModel:
         else:
             kind = StabilityKind.OSCILLATION
         return Stability(kind, eigenvalues, growth, frequencies)
-
-    @functools.cached_property
-    def controllable_basis(self) -> np.ndarray:
-        """Orthonormal basis (columns) of the controllable subspace ``range[B, AB, A²B, A³B]``."""
-        blocks = [self.B]
-        for _ in range(3):
-            blocks.append(self.A @ blocks[-1])
-        ctrb = np.hstack(blocks)
-        u, sv, _ = np.linalg.svd(ctrb)
-        rank = int(np.sum(sv > 1e-10 * sv[0])) if sv[0] > 0 else 0
-        return u[:, :rank]
-
-    @property
-    def is_controllable(self) -> bool:
-        return self.controllable_basis.shape[1] == 4
-
-    def discretize(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Exact zero-order-hold step ``s⁺ = Φ s + Γ u`` over ``dt`` seconds (read-only arrays).
-
-        ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] dt)`` (the augmented exponential). The
-        last few durations are cached: the coast to a fixed cut-off repeats every episode,
-        and its exponential (~40,000 rad of phase) costs milliseconds.
-        """
-        cached = self._discretized.pop(dt, None)
-        if cached is None:
-            cached = zoh_discretize(self.A, self.B, dt)
-            for matrix in cached:
-                matrix.setflags(write=False)
-            if len(self._discretized) >= DISCRETIZE_CACHE_SIZE:
-                del self._discretized[next(iter(self._discretized))]
-        self._discretized[dt] = cached  # (re)inserted last: the dict is kept in recency order
-        return cached
 
     def equilibrium_speed(self, t: float) -> float:
         """Axial speed ``Vz = F t / m`` [m/s] (Newtonian, as in the seed's planar model)."""

@@ -1,11 +1,13 @@
-"""The planar sail as the episode core sees it: batched physics behind a small interface.
+"""The sail as the episode core sees it: batched linear physics behind a small interface.
 
-A :class:`PlanarPlant` knows the nominal configuration, how far its parameters may be
-drawn from it, and the disturbances that act on the physics (beam jitter and push
-noise, per control step and as white noise over longer propagations). It knows nothing
-of light delay, observations, rewards or episodes (``sail_env.core``).
+A plant knows the nominal model, how far its parameters may be drawn from it, and the
+disturbances that act on the physics (beam jitter and push noise, per control step and
+as white noise over longer propagations). It knows nothing of light delay,
+observations, rewards or episodes (``sail_env.core``). :class:`LinearPlant` holds what
+every linear model shares (the exact step, the envelope, the coast);
+:class:`PlanarPlant` is the planar model, ``sail_env.physics.plant3d.RigidPlant`` the 3D one.
 
-Every method works on a batch of environments: states ``x`` (k, 4), inputs ``u`` (k, 2)
+Every method works on a batch of environments: states ``x`` (k, n), inputs ``u`` (k, m)
 and :class:`PlantParams` whose arrays lead with k, or with 1 when all environments
 share one model (no parameter spread), which keeps the common step a single matrix
 product.
@@ -18,7 +20,7 @@ import numpy as np
 import scipy.linalg
 
 from sail_env.physics.config import SailConfig, moment_of_inertia
-from sail_env.physics.linear import push_expansion, sample_gaussian, sample_uniform, zoh_discretize
+from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, sample_uniform, zoh_discretize
 from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_growth_rate,
                                     second_moment)
 from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
@@ -38,12 +40,12 @@ GROWTH_PER_PIECE = 20.0
 class PlantParams:
     """Per-environment arrays (leading axis k, or 1 when shared)."""
 
-    a: np.ndarray  # (·, 4, 4) system matrix
-    b: np.ndarray  # (·, 4, 2) input matrix
-    step: np.ndarray  # (·, P·4, 6) one control step: rows of [Φ Γ] for ε⁰ (and ε¹, ε² with push noise)
-    envelope: np.ndarray  # (·, S, 6) look-ahead table of |Vx| (pointing.envelope_table)
+    a: np.ndarray  # (·, n, n) system matrix
+    b: np.ndarray  # (·, n, m) input matrix
+    step: np.ndarray  # (·, P·n, n + m) one control step: rows of [Φ Γ] for ε⁰ (and ε¹, ε², … with push noise)
+    envelope: np.ndarray  # (·, S, R·(n + m)) look-ahead table of the lateral speed (pointing.envelope_table)
     acceleration: np.ndarray  # (·,) axial acceleration F/m [m/s²]
-    limits: np.ndarray  # (·, 2) largest |X| [m] and |θ| [rad] inside the beam and the small-angle regime
+    limits: np.ndarray  # (·, 2) largest lateral offset [m] and tilt [rad] inside the beam and the small-angle regime
     growth: np.ndarray  # (·,) largest growth rate [1/s] of the state (with noise: of its spread, if faster)
     shared: bool
 
@@ -65,13 +67,141 @@ class PlantParams:
 
 
 def _pad_rows(table: np.ndarray, width: int) -> np.ndarray:
-    """Repeat the last row of each (k, S, 6) table up to ``width`` rows (the maximum is unchanged)."""
+    """Repeat the last row of each (k, S, ·) table up to ``width`` rows (the maximum is unchanged)."""
     if table.shape[1] == width:
         return table
     return np.concatenate([table, np.repeat(table[:, -1:], width - table.shape[1], axis=1)], axis=1)
 
 
-class PlanarPlant:
+class LinearPlant:
+    """What every batched linear plant shares: the parameter draw, the exact step (with the push
+    as a polynomial in its relative error), the envelope and the coast.
+
+    A subclass sets :attr:`state_names`, :attr:`input_names`, :attr:`spread_fields`,
+    :attr:`jitter_inputs` (the input columns the beam jitter moves) and the units, and builds
+    :class:`PlantParams` in ``_build``; it says when the sail has diverged and how fast it flies.
+    """
+
+    state_names: tuple[str, ...]
+    state_units: tuple[str, ...]  # "m", "m/s", "rad", "rad/s": how the observation scales each state
+    input_names: tuple[str, ...]
+    input_units: tuple[str, ...]  # "m" and "rad" scale with the task's beam limits
+    input_ranges: dict[str, float]  # the input at action +1 of any other unit
+    spread_fields: tuple[str, ...]
+    jitter_inputs: tuple[int, ...]
+    velocity_rows: tuple[int, ...]  # the lateral velocity components (pointing and envelope)
+
+    def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, beam_jitter_m: float,
+                 push_noise: float) -> None:
+        self.nominal = nominal
+        self.parameter_spread = parameter_spread
+        self.beam_jitter_m = beam_jitter_m
+        self.push_noise = push_noise
+        self.dt = dt
+        self.white_noise = WhiteNoise.from_step_std(beam_jitter_m, push_noise, self.dt)
+        self.noisy = bool(beam_jitter_m or push_noise)
+        self._shared = None if parameter_spread else self._build(np.ones((1, self.n_factors)), shared=True)
+
+    @property
+    def n_states(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def n_inputs(self) -> int:
+        return len(self.input_names)
+
+    @property
+    def n_factors(self) -> int:
+        """Length of a row of parameter factors (:meth:`draw`, :meth:`params`)."""
+        return len(self.spread_fields)
+
+    @property
+    def n_draws(self) -> int:
+        """How many uniform numbers :meth:`draw` takes from a generator."""
+        return self.n_factors if self.parameter_spread else 0
+
+    # ------------------------------------------------------------------ parameters
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        """Per-episode factors of :attr:`spread_fields` (all one without spread; draws nothing then)."""
+        if not self.parameter_spread:
+            return np.ones(self.n_factors)
+        return sample_uniform(rng, 1 - self.parameter_spread, 1 + self.parameter_spread, self.n_factors)
+
+    def params(self, factors: np.ndarray) -> PlantParams:
+        """Parameters for environments with the given factors (k, n_factors); shared without spread."""
+        return self._shared if self._shared is not None else self._build(factors, shared=False)
+
+    def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ physics
+    def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
+        """One control step with ``u`` held; ``push`` (k,) is the relative push error ε of the step."""
+        n = self.n_states
+        z = np.concatenate([x, u], axis=-1)
+        y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
+        if push is None:
+            return y[:, :n]
+        eps = push[:, None]
+        out = y[:, -n:]
+        for power in range(y.shape[1] // n - 2, -1, -1):  # Horner's scheme in ε
+            out = y[:, power * n:(power + 1) * n] + eps * out
+        return out
+
+    def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def start_limits(self) -> np.ndarray:
+        """Largest size of each state component (n,) a start may have: inside the beam and the
+        small-angle regime for every parameter draw, and not leaving them within one step."""
+        raise NotImplementedError
+
+    def peak_speed(self, p: PlantParams, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Largest lateral speed [m/s] the sail would reach with ``u`` held (the envelope)."""
+        return peak_speed(p.envelope[0] if p.shared else p.envelope, x, u, len(self.velocity_rows))
+
+    def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
+        """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
+        return np.maximum(1, np.ceil(duration * p.growth / GROWTH_PER_PIECE).astype(np.int64))
+
+    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
+        """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held (:mod:`sail_env.physics.noise`)."""
+        raise NotImplementedError
+
+    def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
+              normals: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Propagate ``duration`` (k,) seconds with ``u`` held and the disturbances as white noise.
+
+        Without noise the step is exact. With it, the first two moments are exact
+        (:mod:`sail_env.physics.noise`) and the end state is drawn from that Gaussian with
+        ``normals`` (k, pieces, n). An unstable sail is propagated in
+        :meth:`coast_pieces` pieces and checked after each; returns ``(x, diverged)``.
+        """
+        n = self.n_states
+        pieces = self.coast_pieces(p, duration)
+        piece = duration / pieces
+        diverged = np.zeros(len(x), dtype=bool)
+        if self.noisy:
+            generator = self._moment_generator(p, u) * piece[:, None, None]
+            propagator = scipy.linalg.expm(generator)
+        elif p.shared and np.all(piece == piece[0]):
+            phi, gamma = self.nominal.discretize(float(piece[0]))
+        else:
+            phi, gamma = zoh_discretize(p.a, p.b, piece)
+        for i in range(int(pieces.max())):
+            if self.noisy:
+                start = second_moment(x, np.zeros((len(x), n, n)))
+                mean, cov = mean_and_covariance(np.einsum("kij,kj->ki", propagator, start))
+                moved = sample_gaussian(mean, cov, normals[:, i])
+            else:
+                moved = np.einsum("...ij,...j->...i", phi, x) + np.einsum("...ij,...j->...i", gamma, u)
+            active = (i < pieces) & ~diverged
+            x = np.where(active[:, None], moved, x)
+            diverged |= active & self.diverged(p, x)
+        return x, diverged
+
+
+class PlanarPlant(LinearPlant):
     """Batched physics of the planar model (:mod:`sail_env.physics.planar`) for the episode core.
 
     Args:
@@ -87,28 +217,23 @@ class PlanarPlant:
     """
 
     state_names = STATE_NAMES
+    state_units = ("m", "m/s", "rad", "rad/s")
     input_names = INPUT_NAMES
+    input_units = ("m", "rad")
+    input_ranges: dict[str, float] = {}
+    spread_fields = SPREAD_FIELDS
+    jitter_inputs = (0,)
+    velocity_rows = (VX,)
 
     def __init__(self, config: SailConfig, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0) -> None:
         self.config = config
-        self.nominal = PlanarModel(config)
         self.parameter_spread = parameter_spread
-        self.beam_jitter_m = beam_jitter_m
-        self.push_noise = push_noise
-        self.dt = config.control_step_s
         self._check_spread_box()
         if beam_jitter_m > config.aperture_radius_m:
             raise ValueError(f"beam_jitter_m must be <= aperture_radius_m ({config.aperture_radius_m} m): the "
                              f"beam must land on the sail, got {beam_jitter_m}")
-        self.white_noise = WhiteNoise.from_step_std(beam_jitter_m, push_noise, self.dt)
-        self.noisy = bool(beam_jitter_m or push_noise)
-        self._shared = None if parameter_spread else self._build(np.ones((1, len(SPREAD_FIELDS))), shared=True)
-
-    @property
-    def n_draws(self) -> int:
-        """How many uniform numbers :meth:`draw` takes from a generator."""
-        return len(SPREAD_FIELDS) if self.parameter_spread else 0
+        super().__init__(PlanarModel(config), config.control_step_s, parameter_spread, beam_jitter_m, push_noise)
 
     def _check_spread_box(self) -> None:
         """Every configuration the spread can draw must be valid (the corners are the worst)."""
@@ -122,16 +247,10 @@ class PlanarPlant:
                              f"({c.aperture_radius_m} m): needs curvature_radius_m >= "
                              f"{c.aperture_radius_m / (1 - s):.4g} m, got {c.curvature_radius_m}")
 
-    # ------------------------------------------------------------------ parameters
-    def draw(self, rng: np.random.Generator) -> np.ndarray:
-        """Per-episode factors of :data:`SPREAD_FIELDS` (all one without spread; draws nothing then)."""
-        if not self.parameter_spread:
-            return np.ones(len(SPREAD_FIELDS))
-        return sample_uniform(rng, 1 - self.parameter_spread, 1 + self.parameter_spread, len(SPREAD_FIELDS))
-
-    def params(self, factors: np.ndarray) -> PlantParams:
-        """Parameters for environments with the given factors (k, 5); shared without spread."""
-        return self._shared if self._shared is not None else self._build(factors, shared=False)
+    def start_limits(self) -> np.ndarray:
+        c = self.config
+        tilt = min(c.aperture_radius_m / (c.com_distance_m * (1 + self.parameter_spread)), MAX_TILT_RAD)
+        return np.array([c.aperture_radius_m, c.aperture_radius_m / self.dt, tilt, tilt / self.dt])
 
     def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
         c = self.config
@@ -153,25 +272,21 @@ class PlanarPlant:
         limits = np.stack([np.full(len(lc), c.aperture_radius_m), np.minimum(c.aperture_radius_m / lc, MAX_TILT_RAD)], 1)
         return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), limits, growth, shared)
 
-    # ------------------------------------------------------------------ physics
-    def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
-        """One control step with ``u`` held; ``push`` (k,) is the relative push error ε of the step."""
-        z = np.concatenate([x, u], axis=-1)
-        y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
-        if push is None:
-            return y[:, :4]
-        eps = push[:, None]
-        return y[:, :4] + eps * (y[:, 4:8] + eps * y[:, 8:12])
-
     def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
         """The sail has left the beam (``|X|`` or ``|Lc θ|`` beyond the aperture) or the small-angle
         regime; NaN counts as left."""
         inside = np.abs(x[:, [X, THETA]]) <= p.limits
         return ~(inside[:, 0] & inside[:, 1])
 
-    def peak_speed(self, p: PlantParams, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Largest ``|Vx|`` [m/s] the sail would reach with ``u`` held (the envelope)."""
-        return peak_speed(p.envelope[0] if p.shared else p.envelope, x, u)
+    @property
+    def acceleration_m_s2(self) -> float:
+        """Nominal axial acceleration [m/s²] (what the light-delay rule assumes)."""
+        return self.config.axial_acceleration_m_s2
+
+    @property
+    def max_acceleration_m_s2(self) -> float:
+        """Largest axial acceleration a parameter draw can give (the lightest sail)."""
+        return self.config.axial_acceleration_m_s2 / (1 - self.parameter_spread)
 
     def speed(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
         """Axial speed ``Vz = a t`` [m/s] (Newtonian, as in the seed's planar model)."""
@@ -181,41 +296,8 @@ class PlanarPlant:
         """Flight direction ``|Vx| / Vz`` [rad] if the beam is cut at ``t``."""
         return np.abs(x[:, VX]) / self.speed(p, t)
 
-    def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
-        """How many pieces :meth:`coast` splits each propagation into (one unless the sail, or with
-        noise its spread, grows by more than ``e^GROWTH_PER_PIECE``)."""
-        return np.maximum(1, np.ceil(duration * p.growth / GROWTH_PER_PIECE).astype(np.int64))
-
-    def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
-              normals: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """Propagate ``duration`` (k,) seconds with ``u`` held and the disturbances as white noise.
-
-        Without noise the step is exact. With it, the first two moments are exact
-        (:mod:`sail_env.physics.noise`) and the end state is drawn from that Gaussian with
-        ``normals`` (k, pieces, 4). An unstable sail is propagated in
-        :meth:`coast_pieces` pieces and checked after each; returns ``(x, diverged)``.
-        """
-        pieces = self.coast_pieces(p, duration)
-        piece = duration / pieces
-        diverged = np.zeros(len(x), dtype=bool)
-        if self.noisy:
-            generator = moment_generator(p.a, p.b, u, self.white_noise) * piece[:, None, None]
-            propagator = scipy.linalg.expm(generator)
-        elif p.shared and np.all(piece == piece[0]):
-            phi, gamma = self.nominal.discretize(float(piece[0]))
-        else:
-            phi, gamma = zoh_discretize(p.a, p.b, piece)
-        for i in range(int(pieces.max())):
-            if self.noisy:
-                start = second_moment(x, np.zeros((len(x), 4, 4)))
-                mean, cov = mean_and_covariance(np.einsum("kij,kj->ki", propagator, start))
-                moved = sample_gaussian(mean, cov, normals[:, i])
-            else:
-                moved = np.einsum("...ij,...j->...i", phi, x) + np.einsum("...ij,...j->...i", gamma, u)
-            active = (i < pieces) & ~diverged
-            x = np.where(active[:, None], moved, x)
-            diverged |= active & self.diverged(p, x)
-        return x, diverged
+    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
+        return moment_generator(p.a, p.b, u, self.white_noise)
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""

@@ -26,8 +26,10 @@ def pointing_error(model: PlanarModel, state: np.ndarray, t: float) -> float:
 
 
 def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_per_fast_period: int = 32,
-                   max_samples: int = 2048) -> np.ndarray:
-    """Rows ``[Φ(t_i)[Vx], Γ(t_i)[Vx]]`` (..., S, 6) over the look-ahead of each model in a batch.
+                   max_samples: int = 2048, rows: tuple[int, ...] = (VX,),
+                   mode_rates: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Rows ``[Φ(t_i)[r], Γ(t_i)[r]]`` for each ``r`` in ``rows`` (..., S, R·(n + m)) over the
+    look-ahead of each model in a batch (planar: the one row Vx, (..., S, 6)).
 
     The look-ahead spans ``periods`` of the slowest beat between oscillation modes (at
     least ``periods`` of the slowest mode) sampled at ``samples_per_fast_period`` per
@@ -35,9 +37,10 @@ def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_p
     for a single mode it is the amplitude within ``1 − cos(π/n)``. A model without
     oscillation looks ahead five e-folding times (at least 5 s). Each model gets its own
     number of samples; shorter tables are padded with their last row, which leaves the
-    maximum unchanged.
+    maximum unchanged. ``mode_rates`` is ``(growth (...,), frequencies (..., 2), NaN where
+    none)``, by default the planar closed form :func:`~sail_env.physics.planar.rates`.
     """
-    growth, freqs = rates(a)
+    growth, freqs = rates(a) if mode_rates is None else mode_rates
     growth, freqs = np.atleast_1d(growth), np.atleast_2d(freqs)
     count = np.sum(~np.isnan(freqs), axis=-1)
     slowest = np.nanmin(np.where(count[:, None] > 0, freqs, np.inf), axis=-1)
@@ -50,24 +53,34 @@ def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_p
         horizon = np.where(oscillating, periods * 2 * np.pi / np.minimum(slowest, beat), 5.0 / rate)
         spacing = np.where(oscillating, 2 * np.pi / fastest / samples_per_fast_period, 5.0 / rate / 64)
     samples = np.minimum(max_samples, np.maximum(2, np.ceil(horizon / spacing).astype(np.int64) + 1))
-    step_phi, step_gamma = zoh_discretize(a.reshape(-1, 4, 4), b.reshape(-1, 4, 2), horizon / (samples - 1))
-    k = len(samples)
-    phi, gamma = np.broadcast_to(np.eye(4), (k, 4, 4)), np.zeros((k, 4, 2))
-    table = np.empty((k, samples.max(), 6))
+    n, m = b.shape[-2:]
+    step_phi, step_gamma = zoh_discretize(a.reshape(-1, n, n), b.reshape(-1, n, m), horizon / (samples - 1))
+    k, rows = len(samples), list(rows)
+    phi, gamma = np.broadcast_to(np.eye(n), (k, n, n)), np.zeros((k, n, m))
+    table = np.empty((k, samples.max(), len(rows), n + m))
     for i in range(samples.max()):
-        table[:, i, :4], table[:, i, 4:] = phi[:, VX], gamma[:, VX]
+        table[:, i, :, :n], table[:, i, :, n:] = phi[:, rows], gamma[:, rows]
         more = i + 1 < samples
         phi = np.where(more[:, None, None], step_phi @ phi, phi)
         gamma = np.where(more[:, None, None], step_phi @ gamma + step_gamma, gamma)
-    return table.reshape(*a.shape[:-2], samples.max(), 6)
+    return table.reshape(*a.shape[:-2], samples.max(), len(rows) * (n + m))
 
 
-def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray) -> np.ndarray:
-    """Largest ``|Vx|`` [m/s] over a look-ahead (:func:`envelope_table`), input ``action`` held.
+def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray, rows: int = 1) -> np.ndarray:
+    """Largest ``|Vx|`` (with ``rows`` > 1: the norm of those velocity components) [m/s] over a
+    look-ahead (:func:`envelope_table`), input ``action`` held.
 
-    ``table`` (S, 6) shared by a batch of states (..., 4), or one table per state (..., S, 6).
+    ``table`` (S, ·) shared by a batch of states (..., n), or one table per state (..., S, ·).
     """
     z = np.concatenate([state, action], axis=-1)
+    if rows > 1:
+        size = z.shape[-1]
+        if table.ndim == 2:  # one matrix product for the batch, then the norm over the rows
+            speeds = z @ table.reshape(-1, size).T
+        else:
+            speeds = np.einsum("...sk,...k->...s", table.reshape(*table.shape[:-2], -1, size), z)
+        speeds = speeds.reshape(*speeds.shape[:-1], -1, rows)
+        return np.sqrt(np.max(np.einsum("...sr,...sr->...s", speeds, speeds), axis=-1))
     if table.ndim == 2:
         return np.abs(z @ table.T).max(axis=-1)
     return np.abs(np.matmul(table, z[..., None])).max(axis=(-2, -1))

@@ -162,11 +162,11 @@ def test_largest_documented_sizes_run_cleanly():
     ({"max_beam_tilt_rad": "2e-3"}, "max_beam_tilt_rad must be a real number"),
     ({"beam_jitter_m": "1e-5"}, "beam_jitter_m must be a real number"),
     ({"parameter_spread": np.array([0.1])}, "parameter_spread must be a real number"),
-    ({"sensor_noise_std": 0.1}, "sensor_noise_std must be 4 real numbers"),
-    ({"sensor_noise_std": "1234"}, "sensor_noise_std must be 4 real numbers"),
+    ({"sensor_noise_std": 0.1}, "sensor_noise_std must be a sequence of real numbers"),
+    ({"sensor_noise_std": "1234"}, "sensor_noise_std must be a sequence of real numbers"),
     ({"start_half_widths": (0, 0, False, 0)}, r"start_half_widths\[2\] must be a real number"),
-    ({"config": None}, "config must be a SailConfig or one of"),
-    ({"config": {"push_force_n": 1.0}}, r"config must be a SailConfig .*SailConfig\(\*\*fields\)"),
+    ({"config": None}, "config must be a SailConfig, a RigidFlight or one of"),
+    ({"config": {"push_force_n": 1.0}}, r"config must be a SailConfig.*SailConfig\(\*\*fields\)"),
 ])
 def test_misread_arguments_are_refused_in_the_users_terms(kwargs, match):
     with pytest.raises(ValueError, match=match):

@@ -10,7 +10,7 @@ import pytest
 
 import sail_env  # noqa: F401
 from sail_env.physics import DEEP_DISH, SEED
-from sail_env.tasks import TASKS
+from sail_env.tasks import PLANAR_TASKS as TASKS
 
 REFERENCE = json.loads((Path(__file__).parents[1] / "data" / "episodes_v0_1_0.json").read_text())
 CASES = {"LightSail-v0": {}, "LightSailDeepDish-v0": {}, "LightSail-v0|flat": {"config": "flat"},

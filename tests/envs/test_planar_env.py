@@ -12,7 +12,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.envs import LightSailEnv
 from sail_env.physics import SEED, PlanarModel, pointing_error
-from sail_env.tasks import TASKS
+from sail_env.tasks import PLANAR_TASKS as TASKS
 
 ZERO = np.zeros(2, dtype=np.float32)
 

@@ -2,7 +2,7 @@ import math
 
 import pytest
 
-from sail_env.physics import DEEP_DISH, FLAT, PRESETS, SEED, SailConfig, push_force_from_laser
+from sail_env.physics import DEEP_DISH, FLAT, PRESETS, SEED, push_force_from_laser
 from sail_env.physics.constants import SPEED_OF_LIGHT
 
 

@@ -7,6 +7,7 @@ import scipy.linalg
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel
 from sail_env.physics.linear import push_expansion, sample_gaussian, zoh_discretize
 from sail_env.physics.planar import push_sensitivity, rates, system_matrices
+from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise
 
 
 def test_batched_discretisation_equals_one_at_a_time():
@@ -81,3 +82,18 @@ def test_batched_rates_match_the_scalar_stability():
         np.testing.assert_array_equal(a[k], PlanarModel(config).A)
         assert growth[k] == pytest.approx(stability.growth_rate, rel=1e-12, abs=0)
         assert sorted(freqs[k][~np.isnan(freqs[k])]) == pytest.approx(list(stability.frequencies), rel=1e-12)
+
+
+@pytest.mark.parametrize("radius", [10.0, 4.0])
+def test_fourth_order_push_expansion_is_exact_for_a_ten_percent_power_command(radius):
+    """The 3D power input: [Φ, Γ] of ``K + (1 + ε) A_rad``, ``(1 + ε) B`` at ε = ±0.1 from the
+    fourth-order expansion against the matrix exponential itself (second order: ~1e-6)."""
+    lin = linearise(RigidSail(RigidSailConfig(curvature_radius_m=radius)))
+    kinematics = lin.A - lin.push_sensitivity
+    coeffs = {order: push_expansion(lin.A, lin.B, lin.push_sensitivity, lin.B, 0.005, order) for order in (2, 4)}
+    for eps in (0.1, -0.1):
+        phi, gamma = zoh_discretize(kinematics + (1 + eps) * lin.push_sensitivity, (1 + eps) * lin.B, 0.005)
+        exact = np.concatenate([phi, gamma], axis=1)
+        error = {order: np.abs(sum(eps**k * c[k] for k in range(order + 1)) - exact).max() / np.abs(exact).max()
+                 for order, c in coeffs.items()}
+        assert error[4] < 1e-12 and 1e-8 < error[2] < 1e-5

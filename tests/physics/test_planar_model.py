@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sail_env.physics import DEEP_DISH, FLAT, SEED, PlanarModel, SailConfig, StabilityKind
-from sail_env.physics.planar import DISCRETIZE_CACHE_SIZE
+from sail_env.physics.linear import DISCRETIZE_CACHE_SIZE
 from tests.conftest import seed_rhs
 
 

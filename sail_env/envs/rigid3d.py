@@ -1,0 +1,161 @@
+"""LightSail3D-v0: the rigid 3D sail on both lateral axes, on the same episode core as LightSail-v0."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sail_env.core.spec import Disturbances, EpisodeSpec
+from sail_env.envs.planar import LightSailEnv
+from sail_env.envs.vector import LightSailVectorEnv
+from sail_env.physics.config import SEED
+from sail_env.physics.plant3d import RigidFlight
+from sail_env.physics.rigid3d.config import SHAPES, RigidSailConfig
+
+#: ``(x, y, vx, vy, θx, θy, ωx, ωy)``: LightSail-v0's start box on each axis.
+START_HALF_WIDTHS_3D = (5e-3, 5e-3, 0.1, 0.1, 2e-3, 2e-3, 1e-5, 1e-5)
+#: Relative beam power at action ±1 of the power input with ``power_control=True``.
+DEFAULT_POWER_CONTROL = 0.1
+
+
+def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
+                 curvature_radius_m: float = SEED.curvature_radius_m, com_distance_m: float = SEED.com_distance_m,
+                 absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
+                 relativistic: bool = False, power_control: bool | float = False,
+                 control_start_s: float = SEED.control_start_s, max_beam_offset_m: float = 0.02,
+                 max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
+                 sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
+                 push_noise: float = 0.0, cutoff_jitter_s: float = 0.0, light_delay: bool = False,
+                 parameter_spread: float = 0.0) -> EpisodeSpec:
+    """The :class:`EpisodeSpec` of the 3D keywords (see :class:`LightSail3DEnv`); a bad value is a
+    ``ValueError`` naming its keyword."""
+    if sail_shape not in SHAPES:
+        raise ValueError(f"sail_shape must be one of {SHAPES}, got {sail_shape!r}")
+    if relativistic is not False:
+        raise ValueError(f"relativistic must be False: the relativistic push is not implemented in the 3D "
+                         f"environments yet (sail_env.physics.rigid3d.body.axial_rates has the law), got {relativistic!r}")
+    if isinstance(power_control, bool):
+        power_control = DEFAULT_POWER_CONTROL if power_control else 0.0
+    elif not (isinstance(power_control, (int, float)) and 0 < power_control <= 0.5):
+        raise ValueError(f"power_control must be a bool or a relative power in (0, 0.5], got {power_control!r}")
+    if not (isinstance(absorptivity, (int, float)) and 0 <= absorptivity <= 1):
+        raise ValueError(f"absorptivity must be in [0, 1], got {absorptivity!r}")
+    sail = RigidSailConfig(shape=sail_shape, beam_profile=beam_profile, curvature_radius_m=curvature_radius_m,
+                           com_distance_m=com_distance_m, absorptivity=absorptivity,
+                           reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
+    flight = RigidFlight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
+                         control_start_s=control_start_s)
+    return EpisodeSpec(flight, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
+                       start_half_widths=start_half_widths,
+                       disturbances=Disturbances(sensor_noise_std=sensor_noise_std, beam_jitter_m=beam_jitter_m,
+                                                 push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
+                                                 light_delay=light_delay, parameter_spread=parameter_spread))
+
+
+class LightSail3DEnv(LightSailEnv):
+    """
+    ## Description
+
+    LightSail-v0 in three dimensions: the sail moves and tilts on both lateral axes, and
+    the radiation force and torque are integrated over the real sail surface in the real
+    beam (``sail_env.physics.rigid3d``, docs/physics.md §6–§10) instead of the seed's
+    small-aperture formulas. By default it is the seed's dish (``a = 2 m``,
+    ``R = Lc = 10 m``) in a flat-top beam of its own size, a perfect mirror, constant push,
+    no light delay and no spin: on each axis it is LightSail-v0 with coefficients 2–4 %
+    smaller (the 3D lateral frequency is 70.0 rad/s against 70.7), and the two axes do not
+    interact. The physics is the 8-state linearisation about the centred sail, stepped
+    exactly (zero-order hold); the beam time after the window is one exact propagation
+    with the last command held, and the flight is scored by ``|V⊥| / Vz`` at cut-off.
+    For a perfect spherical mirror the beam's offset and tilt act through one combination
+    per axis (rank 2 of 4, docs/physics.md §9); ``absorptivity > 0`` or ``power_control``
+    give the controller independent channels.
+
+    ## Action Space
+
+    ``Box(-1, 1, (4,), float32)`` (``(5,)`` with ``power_control``), scaled inside:
+
+    | Num | Action | Physical range |
+    |-----|--------|----------------|
+    | 0 | beam offset ``d_x`` at the CoM's range | ± ``max_beam_offset_m`` (2 cm) |
+    | 1 | beam offset ``d_y`` | ± ``max_beam_offset_m`` |
+    | 2 | beam tilt ``ψ_x`` (slope ``k_x/k_z`` of the beam) | ± ``max_beam_tilt_rad`` (2 mrad) |
+    | 3 | beam tilt ``ψ_y`` | ± ``max_beam_tilt_rad`` |
+    | 4 | relative laser power (only with ``power_control``) | ± 10 % (or the value given) |
+
+    Actions outside [-1, 1] are clipped; a NaN or infinite action raises ``ValueError``.
+    The power scales every radiation term (push and stiffnesses) during the step
+    (docs/physics.md §9): a parametric input, not a column of ``B``.
+
+    ## Observation Space
+
+    ``Box(-1e3, 1e3, (9 + m n,), float32)`` (``m`` actions, clipped to that range):
+
+    | Num | Observation | Scale |
+    |-----|-------------|-------|
+    | 0, 1 | CoM offsets ``x``, ``y`` | / 1 cm |
+    | 2, 3 | lateral speeds ``vx``, ``vy`` | / (1 cm · ω₀) |
+    | 4, 5 | tilts ``θx``, ``θy`` (rotation-vector components; the axis leans to ``(θy, −θx)``) | / 1 mrad |
+    | 6, 7 | tilt rates ``ωx``, ``ωy`` | / (1 mrad · ω₀) |
+    | 8 | progress through the control window | -1 at start, +1 at the end |
+    | 9.. | the last ``n`` commands sent, newest first (normalised) | as actions |
+
+    ω₀ is the model's fastest rate (70.0 rad/s at the seed point); ``n`` is 0 without light
+    delay and the largest round trip in steps with it, as in LightSail-v0.
+
+    ## Rewards
+
+    LightSail-v0's: with ``ρ(p) = clip(log10(p / 10 nrad), -2, 3)``, each step
+    ``-ρ(envelope) / N`` (the envelope is the largest ``√(vx² + vy²) / Vz`` with the
+    command held), at the last step ``-ρ(pointing at cut-off)`` and ``+1`` on success,
+    ``-10`` on divergence.
+
+    ## Starting State
+
+    At launch, uniform in ``x, y ∈ ±5 mm``, ``vx, vy ∈ ±0.1 m/s``, ``θx, θy ∈ ±2 mrad``,
+    ``ωx, ωy ∈ ±10 µrad/s`` (``start_half_widths``, in state order).
+    ``reset(options={"initial_state": {...}})`` with keys ``x, y, vx, vy, theta_x, theta_y,
+    omega_x, omega_y`` in SI sets it instead (missing keys are zero); the key ``spin`` may
+    be given too but must equal the task's ``spin_rad_s`` (the spin is part of the linear model).
+
+    ## Episode End
+
+    1. Termination: the end of the control window; the flight is scored at cut-off:
+       ``info["terminal_pointing_rad"]`` (``√(vx² + vy²) / Vz``), ``info["terminal_envelope_rad"]``,
+       ``info["is_success"]`` (pointing ≤ 10 nrad).
+    2. Termination: divergence: the CoM leaves the aperture (``√(x² + y²) > a``) or the
+       tilt exceeds ``min(a/Lc, 0.05 rad)``, during the window or the coast.
+
+    ## Arguments
+
+    | Parameter | Default | Description |
+    |-----------|---------|-------------|
+    | ``sail_shape`` | ``"dish"`` | ``dish``, ``balloon``, ``flat``, ``cone`` |
+    | ``beam_profile`` | ``"flat-top"`` | ``flat-top``, ``gaussian``, ``multi-gaussian``, ``annulus`` |
+    | ``beam_radius_m`` | None | flat-top / annulus radius, Gaussian waist or ring radius (None: the aperture) |
+    | ``curvature_radius_m`` | 10 | ``R`` of the dish, balloon and cone |
+    | ``com_distance_m`` | 10 | ``Lc``, vertex to CoM |
+    | ``absorptivity`` | 0 | absorbed fraction; the rest is reflected |
+    | ``spin_rad_s`` | 0 | spin about the sail axis (couples the tilt axes) |
+    | ``power_control`` | False | True (±10 %) or a relative power: a fifth action |
+    | ``relativistic`` | False | must be False for now (see below) |
+    | ``control_start_s`` | 0 | flight time at which control starts |
+    | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 |
+    | ``start_half_widths`` | see above | 8 half-widths in state order |
+    | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` |
+    | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power |
+
+    ``info["state"]`` holds the true state in SI by name and ``info["t"]`` the flight
+    time; the control step is ``env.unwrapped.dt``. The relativistic push (and with it a
+    push and stiffnesses that fall along the flight) is not in these environments yet:
+    ``relativistic=True`` raises.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 30}
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        self._start(rigid3d_spec(**kwargs), render_mode)
+
+
+def rigid3d_vector_env(num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> LightSailVectorEnv:
+    """The vector entry point of the 3D ids: :class:`LightSailVectorEnv` of the same spec."""
+    return LightSailVectorEnv.from_spec(rigid3d_spec(**kwargs), num_envs, render_mode)
+
