@@ -45,7 +45,7 @@ from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
 
 from agents import cli, evaluation, training
 from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, normalize_kwargs, versions
-from sail_env.tasks import TASKS
+from sail_env.tasks import PLANAR_TASKS, TASKS
 
 DEFAULT_STORAGE = "sqlite:///runs/grid.db"
 DEFAULT_STUDY = "planar"
@@ -393,7 +393,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--storage", default=DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
     parser.add_argument("--study", default=DEFAULT_STUDY, help="name of the grid in the storage")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/grid"), help="where cells keep their files")
-    parser.add_argument("--envs", nargs="+", default=list(TASKS), choices=list(TASKS), metavar="ID")
+    parser.add_argument("--envs", nargs="+", default=list(PLANAR_TASKS), choices=list(TASKS), metavar="ID",
+                        help="tasks of the grid (default: the planar ones)")
     parser.add_argument("--algos", nargs="+", default=sorted(ALGOS), choices=sorted(ALGOS))
     parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS), help="seeds of the tuned rows")
     parser.add_argument("--default-seeds", nargs="*", type=int, default=[0],
