@@ -62,7 +62,7 @@ def ppo_rate(env_id: str, vec_env: str, steps: int) -> float:
     hp = load_hyperparams("ppo", "LightSail-v0")
     n_envs, policy = hp.pop("n_envs"), hp.pop("policy")
     hp.pop("n_timesteps"), hp.pop("normalize")
-    if env_id in sail_env.TASKS:
+    if env_id in TASKS:
         env = make_env(env_id, n_envs, 0, vec_env, {}, hp["gamma"], training=True)
     else:  # a Gymnasium peer: SB3's own wrappers (no is_success to log)
         env = VecNormalize(make_vec_env(env_id, n_envs, seed=0), gamma=hp["gamma"])
