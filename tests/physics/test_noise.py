@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 import scipy.integrate
+import scipy.linalg
 
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel, WhiteNoise, propagate_moments
 
@@ -61,6 +62,34 @@ def test_push_noise_moments_match_monte_carlo():
     cov_error = np.sqrt((np.outer(var, var) + cov**2) / paths)
     assert np.all(np.abs(mc_cov - cov) < 4 * cov_error)
     assert np.all(var > 0) and np.all(np.abs(mc_mean - mean0) > 4 * np.sqrt(var / paths))  # all components move
+
+
+def test_stratonovich_correction_matches_geometric_brownian_motion():
+    """A push-scaled force on the velocity itself, ``dV = λ V (dt + dW_F)`` read as Stratonovich, is
+    geometric Brownian motion: ``E[V] = V0 exp((λ + ½ S λ²) t)``, ``E[V²] = V0² exp(2 (λ + S λ²) t)``.
+
+    The planar model never shows the ½ S_F A_F² correction: its push scales forces that depend on
+    positions only, so ``A_F² = 0`` and ``A_F B_F = 0`` (asserted last). This system makes it the
+    whole difference between the Stratonovich and the Itô mean (exp(-0.5) against exp(-1)).
+    """
+    from sail_env.physics.noise import mean_and_covariance, moment_generator, second_moment
+    from sail_env.physics.planar import VX, push_sensitivity
+
+    rate, psd, duration, v0 = -1.0, 1.0, 1.0, 2.0
+    a = np.zeros((4, 4))
+    a[VX, VX] = rate
+    start = np.array([0.0, v0, 0.0, 0.0])
+    gen = moment_generator(a, np.zeros((4, 2)), np.zeros(2), WhiteNoise(push_psd_s=psd))
+    mean, cov = mean_and_covariance(scipy.linalg.expm(gen * duration) @ second_moment(start, np.zeros((4, 4))))
+    expected_mean = v0 * np.exp((rate + 0.5 * psd * rate**2) * duration)
+    expected_square = v0**2 * np.exp(2 * (rate + psd * rate**2) * duration)
+    assert mean[VX] == pytest.approx(expected_mean, rel=1e-12)
+    assert cov[VX, VX] + mean[VX] ** 2 == pytest.approx(expected_square, rel=1e-12)
+    for config in (SEED, DEEP_DISH):
+        model = PlanarModel(config)
+        a_push, b_push = push_sensitivity(model.A, model.B)
+        np.testing.assert_array_equal(a_push @ a_push, 0)
+        np.testing.assert_array_equal(a_push @ b_push, 0)
 
 
 def test_noise_validation():
