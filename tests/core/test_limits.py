@@ -56,8 +56,13 @@ def test_realistic_disturbances_on_shallow_dishes(radius):
 
 
 def test_window_ending_exactly_at_the_cutoff_is_scored_there():
-    steps, info = episode(config=SEED.replace(control_window_s=0.35, beam_cutoff_s=0.35))
+    config = SEED.replace(control_window_s=0.35, beam_cutoff_s=0.35)
+    steps, info = episode(config=config)
     assert steps == 70 and info["cutoff_s"] == 0.35 and not info["diverged"]
+    # Nothing is left to coast: the scored state is the window's last, its pointing |Vx| / (F t / m).
+    assert info["terminal_state"] == info["state"]
+    speed = config.push_force_n / config.total_mass_kg * 0.35
+    assert info["terminal_pointing_rad"] == pytest.approx(abs(info["state"]["vx"]) / speed, rel=1e-12)
 
 
 @pytest.mark.parametrize("config, kwargs", [
