@@ -45,19 +45,24 @@ def test_sensor_noise_has_its_configured_size_on_each_observed_component():
 
 
 def test_beam_jitter_acts_on_the_offset_in_the_window():
-    """From on the beam with zero commands, k steps of per-step jitter σ leave the covariance
-    Σ_j (Φ^j Γ_d) (Φ^j Γ_d)ᵀ σ², Γ_d the offset's column (the tilt's is Lc times larger)."""
+    """From on the beam with a constant command u, k steps of per-step jitter σ added to the offset
+    leave the noise-free mean Σ_j Φ^j Γ u and the covariance Σ_j (Φ^j Γ_d) (Φ^j Γ_d)ᵀ σ², Γ_d the
+    offset's column (the tilt's is Lc times larger)."""
     sigma, k = 1e-4, 20
     envs = vector(env_id="LightSailDeepDish-v0", beam_jitter_m=sigma)
     envs.reset(seed=1, options={"initial_state": {}})
-    steps(envs, k)
+    action = np.array([0.5, 0.0], dtype=np.float32)
+    steps(envs, k, np.tile(action, (N, 1)))
     phi, gamma = PlanarModel(DEEP_DISH).discretize(DEEP_DISH.control_step_s)
-    expected, column = np.zeros((4, 4)), gamma[:, 0]
+    u = action * envs.episode_spec.action_scale
+    expected, expected_mean, column = np.zeros((4, 4)), np.zeros(4), gamma[:, 0]
     for _ in range(k):
         expected += sigma**2 * np.outer(column, column)
+        expected_mean = phi @ expected_mean + gamma @ u
         column = phi @ column
     measured = envs.core.x.var(axis=0)
     np.testing.assert_array_less(np.abs(measured / np.diag(expected) - 1), 4 * math.sqrt(2 / N))
+    np.testing.assert_array_less(np.abs(envs.core.x.mean(axis=0) - expected_mean), 4 * np.sqrt(np.diag(expected) / N))
 
 
 def test_beam_jitter_keeps_acting_over_the_coast_with_the_documented_size():
