@@ -7,6 +7,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+import scipy.linalg
 
 import sail_env  # noqa: F401  (registers the ids)
 from agents import LQRAgent, PassiveAgent
@@ -83,6 +84,24 @@ def test_beam_jitter_keeps_acting_over_the_coast_with_the_documented_size():
     speed = info["final_info"]["terminal_pointing_rad"] * model.equilibrium_speed(600.0)
     _, total = propagate_moments(model, np.zeros(4), np.zeros((4, 4)), np.zeros(2), 600.0, noise)
     assert math.sqrt(np.mean(speed**2)) == pytest.approx(math.sqrt(total[1, 1]), rel=4 / math.sqrt(2 * 1000))
+
+
+def test_push_noise_acts_in_the_window():
+    """A per-step push error ε (σ per step) from a displaced start, zero commands: to first order in σ
+    the state after k steps has the variance σ² Σ_j (Φ^{k-1-j} D Φ^j x0)², with D = ∂Φ/∂ε taken by
+    central differences of exact exponentials of (A + ε A_F) dt."""
+    sigma, k, start = 0.01, 20, np.array([1e-2, 0.0, 0.0, 0.0])
+    envs = vector(env_id="LightSailDeepDish-v0", push_noise=sigma)
+    envs.reset(seed=4, options={"initial_state": dict(zip(("x", "vx", "theta", "omega"), start))})
+    steps(envs, k)
+    model, dt, h = PlanarModel(DEEP_DISH), DEEP_DISH.control_step_s, 1e-6
+    a_push, _ = model.push_sensitivity
+    phi = scipy.linalg.expm(model.A * dt)
+    d = (scipy.linalg.expm((model.A + h * a_push) * dt) - scipy.linalg.expm((model.A - h * a_push) * dt)) / (2 * h)
+    powers = [np.linalg.matrix_power(phi, j) for j in range(k)]
+    expected = sigma**2 * sum((powers[k - 1 - j] @ d @ powers[j] @ start) ** 2 for j in range(k))
+    measured = envs.core.x.var(axis=0)
+    np.testing.assert_array_less(np.abs(measured / expected - 1), 4 * math.sqrt(2 / N))
 
 
 def test_push_noise_acts_over_the_coast():
