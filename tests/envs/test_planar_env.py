@@ -4,6 +4,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+import scipy.linalg
 from gymnasium.utils.env_checker import check_env
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -157,6 +158,30 @@ def test_light_delay_lags_observation_and_command():
         shown = spec.observation_to_state(observations[k])
         np.testing.assert_allclose(shown, list(states[k - lag].values()), rtol=1e-5)
     # The command history (newest first, distinct commands) and its length: tests/envs/test_disturbances.py.
+
+
+def _check_delayed_observations(env, seed, steps=20):
+    """The observation at step k shows the true state at step k − D(k), D(k) = round(½ a t² / c / dt)
+    with the episode's own acceleration, also before control (k < D(k)): with zero commands, the
+    exact propagation exp(A (k − D(k)) dt) of the state at control start. Returns D."""
+    spec = env.unwrapped.episode_spec
+    obs, info = env.reset(seed=seed)
+    core = env.unwrapped.core
+    a, accel = core.params.a[0], core.params.acceleration[0]
+    t = spec.config.control_start_s + np.arange(steps + 1) * spec.dt
+    delays = np.rint(0.5 * accel * t**2 / 299_792_458.0 / spec.dt).astype(int)
+    start = np.array(list(info["state"].values()))
+    observations = [obs] + [env.step(np.zeros(2, dtype=np.float32))[0] for _ in range(steps)]
+    for k, observed in enumerate(observations):
+        expected = scipy.linalg.expm(a * (k - delays[k]) * spec.dt) @ start
+        np.testing.assert_allclose(spec.observation_to_state(observed), expected, rtol=1e-5, atol=1e-12)
+    return delays
+
+
+def test_light_delayed_observation_shows_the_drawn_sails_own_past():
+    env = gym.make("LightSailRealistic-v0", sensor_noise_std=(0, 0, 0, 0), beam_jitter_m=0.0, push_noise=0.0)
+    delays = _check_delayed_observations(env, seed=3)
+    assert delays[0] == 4 != env.unwrapped.episode_spec.delay_steps(0)  # this draw's delay is not the nominal one
 
 
 @pytest.mark.parametrize("disturbance", [{"beam_jitter_m": 1e-5}, {"push_noise": 0.01}, {"cutoff_jitter_s": 3.0},
