@@ -66,6 +66,33 @@ def test_beam_jitter_acts_on_the_offset_in_the_window():
     np.testing.assert_array_less(np.abs(envs.core.x.mean(axis=0) - expected_mean), 4 * np.sqrt(np.diag(expected) / N))
 
 
+def test_beam_jitter_of_every_step_is_its_own_draw_with_light_delay():
+    """With light delay the first observations show the lag steps flown before control; zero commands
+    make each step's jitter readable from the states: w_k = Γ_d·(x_{k+1} − Φ x_k) / (|Γ_d|² σ). Over
+    the lag steps and the whole window the w_k have the configured size and no two are the same draw."""
+    sigma, config = 1e-4, DEEP_DISH.replace(control_start_s=10.0)
+    env = gym.make("LightSail-v0", config=config, light_delay=True, beam_jitter_m=sigma)
+    spec = env.unwrapped.episode_spec
+    obs, info = env.reset(seed=0)
+    lag = int(spec.delay_steps(0))
+    observations, states, done = [obs], [list(info["state"].values())], False
+    while not done:
+        obs, _, done, _, info = env.step(np.zeros(2, dtype=np.float32))
+        observations.append(obs)
+        states.append(list(info["state"].values()))
+    before = [spec.observation_to_state(observations[k]) for k in range(lag)]  # steps −lag … −1
+    path = np.array(before + states)
+    phi, gamma = PlanarModel(config).discretize(config.control_step_s)
+    column = gamma[:, 0]
+    w = (path[1:] - path[:-1] @ phi.T) @ column / (column @ column) / sigma
+    assert len(w) == lag + config.control_steps and lag == 3
+    assert abs(w.mean()) < 4 / math.sqrt(len(w)) and abs(w.std() - 1) < 4 / math.sqrt(2 * len(w))
+    # No draw is used twice where a misplaced noise index could reuse one (the lag steps and the
+    # window's first 3 lag): the recovery is good to ~2e-6 (float32 observations before control).
+    first = w[:4 * lag]
+    assert np.abs(first[:, None] - first[None, :])[np.triu_indices(len(first), 1)].min() > 1e-3
+
+
 def test_beam_jitter_keeps_acting_over_the_coast_with_the_documented_size():
     """sail_env/tasks.py: the realistic jitter (15 µm per 5 ms step) alone leaves σ(V⊥) ≈ 0.21 m/s
     (3.4 nrad) over the 590 s coast. The env's terminal pointing over 600 s of jitter from on the
