@@ -12,7 +12,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.envs import LightSailEnv
-from sail_env.physics import SEED, PlanarModel, pointing_error
+from sail_env.physics import DEEP_DISH, SEED, PlanarModel, pointing_error
 from sail_env.tasks import TASKS
 
 ZERO = np.zeros(2, dtype=np.float32)
@@ -158,6 +158,17 @@ def test_light_delay_lags_observation_and_command():
         shown = spec.observation_to_state(observations[k])
         np.testing.assert_allclose(shown, list(states[k - lag].values()), rtol=1e-5)
     # The command history (newest first, distinct commands) and its length: tests/envs/test_disturbances.py.
+
+
+@pytest.mark.parametrize("start", [0.5, 10.0])
+def test_launch_state_is_flown_exactly_to_control_start(start):
+    """Control starting ``start`` s into the flight: the state at control start is the exact
+    propagation exp(A start) of the launch state (zero beam input before control)."""
+    config = DEEP_DISH.replace(control_start_s=start)
+    launch = {"x": 1e-3, "vx": 0.0, "theta": 1e-4, "omega": 0.0}
+    _, info = gym.make("LightSail-v0", config=config).reset(seed=0, options={"initial_state": launch})
+    expected = scipy.linalg.expm(PlanarModel(config).A * start) @ np.array(list(launch.values()))
+    np.testing.assert_allclose(list(info["state"].values()), expected, rtol=1e-9, atol=1e-15)
 
 
 def _check_delayed_observations(env, seed, steps=20):
