@@ -41,21 +41,23 @@ def test_noise_free_episodes_are_those_of_v0_1_0(case):
 
 #: The realistic task started 9.25 s out: the parameter draws end the window with one-way delays of
 #: 3 and 4 steps in one batch, so the commands still in flight run out at different steps.
-MIXED_DELAYS = ("LightSailRealistic-v0", {"config": DEEP_DISH.replace(control_start_s=9.25)}, None)
+MIXED_DELAYS = ("LightSailRealistic-v0", {"config": DEEP_DISH.replace(control_start_s=9.25)}, None, 10)
+#: Seeded with 0, environment 3's draw starts control with a 4-step delay, the others with 3.
+MIXED_FIRST_DELAYS = ("LightSailRealistic-v0", {}, None, 0)
 #: Environment 0 starts leaving the beam, ends at its first step and plays on one step behind the
 #: others: later windows end for only part of the batch, each with its own parameter draw.
-OUT_OF_STEP = ("LightSailRealistic-v0", {}, np.array([[1.9, 300.0, 0.0, 0.0]] + [[0.0, 0.0, 0.0, 0.0]] * 4))
+OUT_OF_STEP = ("LightSailRealistic-v0", {}, np.array([[1.9, 300.0, 0.0, 0.0]] + [[0.0, 0.0, 0.0, 0.0]] * 4), 10)
 
 
-@pytest.mark.parametrize("env_id, kwargs, first_states",
-                         [(env_id, {}, None) for env_id in sorted(TASKS)] + [MIXED_DELAYS, OUT_OF_STEP])
-def test_vector_env_plays_the_single_envs_episodes(env_id, kwargs, first_states):
+@pytest.mark.parametrize("env_id, kwargs, first_states, seed", [(env_id, {}, None, 10) for env_id in sorted(TASKS)]
+                         + [MIXED_DELAYS, MIXED_FIRST_DELAYS, OUT_OF_STEP])
+def test_vector_env_plays_the_single_envs_episodes(env_id, kwargs, first_states, seed):
     """Environment i of the batch seeded with s is a single env seeded with s + i, across autoresets."""
     n, steps = 5, 450  # two whole episodes and part of a third
     actions = np.random.default_rng(0).uniform(-1, 1, (steps, n, 2)).astype(np.float32)
     envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
     options = None if first_states is None else {"initial_state": first_states}
-    obs, _ = envs.reset(seed=10, options=options)
+    obs, _ = envs.reset(seed=seed, options=options)
     batch_obs, batch_rewards, batch_scores = [obs], [], []
     for k in range(steps):
         obs, reward, terminated, truncated, info = envs.step(actions[k])
@@ -71,7 +73,7 @@ def test_vector_env_plays_the_single_envs_episodes(env_id, kwargs, first_states)
     for i in range(n):
         env = gym.make(env_id, **kwargs)
         options = None if first_states is None else {"initial_state": dict(zip(STATE_NAMES, first_states[i]))}
-        obs, _ = env.reset(seed=10 + i, options=options)
+        obs, _ = env.reset(seed=seed + i, options=options)
         observations, rewards = [obs], []
         for k in range(steps):
             obs, reward, terminated, truncated, info = env.step(actions[k, i])
