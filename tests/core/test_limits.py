@@ -112,6 +112,13 @@ def test_light_round_trip_longer_than_the_window_is_refused():
         LightSailEnv(SEED.replace(control_start_s=60.0), light_delay=True)
     spec = LightSailEnv(SEED.replace(control_start_s=50.0), light_delay=True).episode_spec
     assert spec.history_length <= spec.n_steps + 2
+    # The limit is the round trip a t² / (c dt) at the window's end t = start + 1 s: 200 steps at
+    # t = √(200 c dt / a) = 54.75 s, so control may start at 53.7 s but not at 53.85 s.
+    end = math.sqrt(200 * SPEED_OF_LIGHT * 0.005 / SEED.axial_acceleration_m_s2)
+    assert end - 1.0 == pytest.approx(53.75, abs=0.005)
+    LightSailEnv(SEED.replace(control_start_s=53.7), light_delay=True)
+    with pytest.raises(ValueError, match="light_delay: the round trip"):
+        LightSailEnv(SEED.replace(control_start_s=53.85), light_delay=True)
 
 
 def test_windows_beyond_the_step_limit_are_refused():
