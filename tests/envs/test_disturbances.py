@@ -179,6 +179,19 @@ def _states(env, actions, seed=0, options=None):
 
 
 @pytest.mark.parametrize("light_delay", [False, True])
+def test_delay_rule_gives_whole_steps_for_every_step_asked(light_delay):
+    """``EpisodeSpec.delay_steps`` broadcasts over steps to integers: round(½ a t² / c / dt), or zero."""
+    config = DEEP_DISH.replace(control_start_s=10.0)
+    spec = gym.make("LightSail-v0", config=config, light_delay=light_delay).unwrapped.episode_spec
+    steps_asked = np.arange(0, 201, 50)
+    t = config.control_start_s + steps_asked * config.control_step_s
+    expected = np.rint(0.5 * config.axial_acceleration_m_s2 * t**2 / SPEED_OF_LIGHT / config.control_step_s)
+    delays = spec.delay_steps(steps_asked)
+    assert delays.shape == steps_asked.shape and delays.dtype.kind == "i"
+    np.testing.assert_array_equal(delays, expected if light_delay else np.zeros(len(steps_asked)))
+
+
+@pytest.mark.parametrize("light_delay", [False, True])
 def test_a_command_acts_exactly_after_the_light_delay(light_delay):
     """An impulse command sent at step j first moves the true state during step j + D(j), with
     D = round(½ a t² / c / dt) the one-way delay (0 without light delay), not a step earlier or later."""
