@@ -65,13 +65,13 @@ def test_window_ending_exactly_at_the_cutoff_is_scored_there():
     assert info["terminal_pointing_rad"] == pytest.approx(abs(info["state"]["vx"]) / speed, rel=1e-12)
 
 
-@pytest.mark.parametrize("config, kwargs", [
-    (SEED.replace(control_window_s=0.3526, beam_cutoff_s=0.3526), {}),  # 71 whole steps end at 0.355 s
-    (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0), {"light_delay": True}),  # commands still in flight
-    (SEED.replace(beam_cutoff_s=2.0), {"cutoff_jitter_s": 1.5}),  # the earliest cut-off falls in the window
+@pytest.mark.parametrize("config, kwargs, earliest", [
+    (SEED.replace(control_window_s=0.3526, beam_cutoff_s=0.3526), {}, "0.3526"),  # 71 whole steps end at 0.355 s
+    (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0), {"light_delay": True}, "11"),  # commands in flight
+    (SEED.replace(beam_cutoff_s=2.0), {"cutoff_jitter_s": 1.5}, "0.5"),  # the earliest cut-off falls in the window
 ])
-def test_cutoff_before_the_last_command_arrives_is_refused(config, kwargs):
-    with pytest.raises(ValueError, match="beam_cutoff_s - cutoff_jitter_s"):
+def test_cutoff_before_the_last_command_arrives_is_refused(config, kwargs, earliest):
+    with pytest.raises(ValueError, match=f"beam_cutoff_s - cutoff_jitter_s = {earliest} s must be >="):
         LightSailEnv(config, **kwargs)
 
 
