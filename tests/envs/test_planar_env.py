@@ -238,3 +238,13 @@ def test_long_light_delay_with_noise_runs_to_the_cutoff():
     assert env.unwrapped.episode_spec.delay_steps(0) >= 20
     _, rewards, infos = _run(env, seed=0)
     assert len(rewards) == SEED.control_steps and np.isfinite(infos[-1]["terminal_pointing_rad"])
+
+
+def test_episode_spec_defaults_are_those_of_the_default_env():
+    """``EpisodeSpec()`` (what a controller may design on) is the default ``LightSailEnv``'s task."""
+    from sail_env.core import EpisodeSpec
+
+    default, env_spec = EpisodeSpec(), LightSailEnv().episode_spec
+    assert default.config == env_spec.config == SEED and default.disturbances == env_spec.disturbances
+    np.testing.assert_array_equal(default.action_scale, env_spec.action_scale)
+    np.testing.assert_array_equal(default.start_half_widths, env_spec.start_half_widths)
