@@ -134,6 +134,8 @@ def test_windows_beyond_the_step_limit_are_refused():
     ({"cutoff_jitter_s": 1e300}, "cutoff_jitter_s"),
     ({"start_half_widths": (1e308, 0, 0, 0)}, r"start_half_widths: \|x\| must be <= 2"),
     ({"start_half_widths": (0, 0, 0.06, 0)}, r"\|theta\|"),
+    ({"max_beam_offset_m": 0.0}, "^max_beam_offset_m must be finite and > 0"),
+    ({"max_beam_tilt_rad": math.inf}, "^max_beam_tilt_rad must be finite and > 0"),
 ])
 def test_extreme_sizes_are_refused_at_construction(kwargs, match):
     with pytest.raises(ValueError, match=match):
