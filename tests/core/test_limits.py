@@ -68,6 +68,8 @@ def test_window_ending_exactly_at_the_cutoff_is_scored_there():
 @pytest.mark.parametrize("config, kwargs, earliest", [
     (SEED.replace(control_window_s=0.3526, beam_cutoff_s=0.3526), {}, "0.3526"),  # 71 whole steps end at 0.355 s
     (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0), {"light_delay": True}, "11"),  # commands in flight
+    # The last command, sent at 10.995 s, arrives 4 steps (D = ½ a t² / c = 20.2 ms) later: after 11.0175 s.
+    (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0175), {"light_delay": True}, "11.0175"),
     (SEED.replace(beam_cutoff_s=2.0), {"cutoff_jitter_s": 1.5}, "0.5"),  # the earliest cut-off falls in the window
 ])
 def test_cutoff_before_the_last_command_arrives_is_refused(config, kwargs, earliest):
