@@ -144,6 +144,21 @@ def test_extreme_sizes_are_refused_at_construction(kwargs, match):
         LightSailEnv(**kwargs)
 
 
+@pytest.mark.parametrize("spread", [0.0, 0.1])
+def test_start_limits_keep_every_drawn_sail_in_the_beam(spread):
+    """A long sail (a / Lc = 0.04 < the 0.05 rad small-angle limit): a start may tilt up to
+    |θ| = a / (Lc (1 + s)), so that |Lc θ| ≤ a for the longest Lc the spread draws, and turn up to
+    |ω| = that / dt (not leaving within one step); just beyond either is refused."""
+    config = SEED.replace(com_distance_m=50.0, strut_length_m=100.0)
+    env = gym.make("LightSail-v0", config=config, parameter_spread=spread)
+    tilt = config.aperture_radius_m / (config.com_distance_m * (1 + spread))
+    rate = tilt / config.control_step_s
+    env.reset(seed=0, options={"initial_state": {"theta": 0.999 * tilt, "omega": 0.999 * rate}})
+    for state, name in (({"theta": 1.001 * tilt}, "theta"), ({"omega": 1.001 * rate}, "omega")):
+        with pytest.raises(ValueError, match=rf"initial_state: \|{name}\| must be <= {tilt if name == 'theta' else rate:.4g}"):
+            env.reset(seed=0, options={"initial_state": state})
+
+
 @pytest.mark.parametrize("state, name", [({"x": 1e308}, "x"), ({"vx": 1e308}, "vx"), ({"theta": 1e308}, "theta"),
                                          ({"omega": 1e308}, "omega"), ({"x": -2.5}, "x")])
 def test_starts_outside_the_beam_are_refused_at_reset(state, name):
