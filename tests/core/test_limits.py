@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
-from sail_env.core.spec import MAX_PUSH_NOISE
+from sail_env.core.spec import MAX_PUSH_NOISE, Disturbances
 from sail_env.envs import LightSailEnv
 from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
 from sail_env.physics.config import MAX_CONTROL_STEPS
@@ -249,3 +249,13 @@ def test_misread_vector_actions_are_refused_naming_the_shape(actions):
     envs.reset(seed=0)
     with pytest.raises(ValueError, match=r"actions must be real numbers of shape \(3, 2\)"):
         envs.step(actions)
+
+
+def test_disturbances_hold_the_sensor_noise_as_four_floats():
+    """However given (a list, NumPy numbers), the sensor noise is kept as a tuple of four floats: the
+    same task compares equal and hashes alike."""
+    given = Disturbances(sensor_noise_std=[np.float32(1e-4), 0, 0, np.int64(1)])
+    assert given.sensor_noise_std == (float(np.float32(1e-4)), 0.0, 0.0, 1.0)
+    assert all(type(v) is float for v in given.sensor_noise_std)
+    same = Disturbances(sensor_noise_std=given.sensor_noise_std)
+    assert given == same and hash(given) == hash(same)
