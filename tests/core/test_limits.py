@@ -259,3 +259,9 @@ def test_disturbances_hold_the_sensor_noise_as_four_floats():
     assert all(type(v) is float for v in given.sensor_noise_std)
     same = Disturbances(sensor_noise_std=given.sensor_noise_std)
     assert given == same and hash(given) == hash(same)
+
+
+@pytest.mark.parametrize("name", ["beam_jitter_m", "push_noise", "cutoff_jitter_s", "parameter_spread"])
+def test_negative_disturbance_sizes_are_refused(name):
+    with pytest.raises(ValueError, match=f"^{name} must be finite and >= 0, got -0.01"):
+        Disturbances(**{name: -0.01})
