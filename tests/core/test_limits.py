@@ -265,3 +265,9 @@ def test_disturbances_hold_the_sensor_noise_as_four_floats():
 def test_negative_disturbance_sizes_are_refused(name):
     with pytest.raises(ValueError, match=f"^{name} must be finite and >= 0, got -0.01"):
         Disturbances(**{name: -0.01})
+
+
+def test_parameter_spread_range_is_half_open():
+    Disturbances(parameter_spread=0.4999)
+    with pytest.raises(ValueError, match=r"parameter_spread must be in \[0, 0.5\), got 0.5"):
+        Disturbances(parameter_spread=0.5)
