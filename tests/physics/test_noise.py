@@ -97,6 +97,11 @@ def test_noise_validation():
         WhiteNoise(push_psd_s=-1.0)
     with pytest.raises(ValueError, match="duration"):
         propagate_moments(PlanarModel(SEED), np.zeros(4), np.zeros((4, 4)), np.zeros(2), -1.0, WhiteNoise())
+    from sail_env.physics.noise import tolerable_jitter_psd
+
+    for probability in (0.0, 1.0, 1.5):
+        with pytest.raises(ValueError, match=rf"probability must be in \(0, 1\), got {probability}"):
+            tolerable_jitter_psd(PlanarModel(SEED), 590.0, 1e-8, 600.0, probability)
 
 
 def test_tolerable_jitter_matches_the_driven_oscillator():
