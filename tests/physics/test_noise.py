@@ -16,6 +16,14 @@ def test_noise_free_moments_are_the_exact_propagation():
     np.testing.assert_array_equal(out_cov, 0)
 
 
+@pytest.mark.parametrize("noise", [WhiteNoise(), WhiteNoise(beam_jitter_psd_m2s=1e-10, push_psd_s=1e-4)])
+def test_zero_duration_keeps_the_moments(noise):
+    mean, cov = np.array([1e-3, 0.1, 1e-4, 0.0]), np.diag([1e-6, 1e-4, 1e-8, 1e-6])
+    out_mean, out_cov = propagate_moments(PlanarModel(DEEP_DISH), mean, cov, np.array([1e-3, 2e-4]), 0.0, noise)
+    np.testing.assert_allclose(out_mean, mean, rtol=1e-12)
+    np.testing.assert_allclose(out_cov, cov, rtol=1e-9, atol=1e-20)
+
+
 def test_additive_jitter_covariance_matches_the_integral():
     """Van Loan's result, checked against ∫ Φ(s) S b bᵀ Φ(s)ᵀ ds by adaptive quadrature."""
     model = PlanarModel(SEED)
