@@ -100,6 +100,22 @@ def test_stratonovich_correction_matches_geometric_brownian_motion():
         np.testing.assert_array_equal(a_push @ b_push, 0)
 
 
+def test_moment_growth_rate_with_additive_noise_is_the_sails_own():
+    """With additive noise only, the second moment's generator has the eigenvalues λ_i + λ_j of A's:
+    half its largest real part is the sail's growth rate (``PlanarModel.stability``, from the closed-form
+    roots of the 2x2 stiffness; zero for the oscillating deep dish), per model of a batch."""
+    from sail_env.physics import FLAT
+    from sail_env.physics.noise import moment_growth_rate
+
+    noise = WhiteNoise(beam_jitter_psd_m2s=1e-10)
+    flat, dish = PlanarModel(FLAT), PlanarModel(DEEP_DISH)
+    assert flat.stability.growth_rate > 50.0 and dish.stability.growth_rate == 0.0
+    assert moment_growth_rate(flat.A, flat.B, noise) == pytest.approx(flat.stability.growth_rate, rel=1e-9)
+    batch = moment_growth_rate(np.stack([flat.A, dish.A]), np.stack([flat.B, dish.B]), noise)
+    assert batch.shape == (2,)
+    assert batch == pytest.approx([flat.stability.growth_rate, 0.0], rel=1e-9, abs=1e-9 * flat.stability.growth_rate)
+
+
 def test_noise_validation():
     with pytest.raises(ValueError, match="push_psd_s"):
         WhiteNoise(push_psd_s=-1.0)
