@@ -164,6 +164,22 @@ def test_parameter_spread_draws_each_episode_from_the_box():
     assert np.unique(envs.core.params.a[:, 3, 2]).size == N
 
 
+def test_parameter_spread_coasts_each_episode_with_its_own_sail():
+    """Without noise the coast is exact: the scored state is exp(A T) of the window's last state for
+    the drawn sail's A (zero command held), T the 599 s from the window's end to cut-off."""
+    env = gym.make("LightSailDeepDish-v0", parameter_spread=0.1)
+    for seed in range(3):
+        env.reset(seed=seed)
+        a = env.unwrapped.core.params.a[0]
+        assert not np.array_equal(a, PlanarModel(DEEP_DISH).A)
+        for _ in range(DEEP_DISH.control_steps):
+            _, _, done, _, info = env.step(np.zeros(2, dtype=np.float32))
+        assert done
+        expected = scipy.linalg.expm(a * 599.0) @ np.array(list(info["state"].values()))
+        np.testing.assert_allclose(list(info["terminal_state"].values()), expected, rtol=1e-7,
+                                   atol=1e-9 * np.abs(expected).max())
+
+
 def test_cutoff_jitter_is_uniform_over_its_width():
     width = 5.0
     envs = vector(cutoff_jitter_s=width)
