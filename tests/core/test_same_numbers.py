@@ -44,13 +44,17 @@ def test_noise_free_episodes_are_those_of_v0_1_0(case):
 MIXED_DELAYS = ("LightSailRealistic-v0", {"config": DEEP_DISH.replace(control_start_s=9.25)}, None, 10)
 #: Seeded with 0, environment 3's draw starts control with a 4-step delay, the others with 3.
 MIXED_FIRST_DELAYS = ("LightSailRealistic-v0", {}, None, 0)
+#: Strong push noise makes the spread grow as e^{0.75 t} over the coast (parametric excitation), so
+#: the coast runs in pieces of e^20; cut-offs around 614 s give 23 or 24 of them in one batch.
+MIXED_PIECES = ("LightSailDeepDish-v0", {"config": DEEP_DISH.replace(beam_cutoff_s=614.0), "push_noise": 0.2,
+                                         "cutoff_jitter_s": 5.0}, None, 10)
 #: Environment 0 starts leaving the beam, ends at its first step and plays on one step behind the
 #: others: later windows end for only part of the batch, each with its own parameter draw.
 OUT_OF_STEP = ("LightSailRealistic-v0", {}, np.array([[1.9, 300.0, 0.0, 0.0]] + [[0.0, 0.0, 0.0, 0.0]] * 4), 10)
 
 
 @pytest.mark.parametrize("env_id, kwargs, first_states, seed", [(env_id, {}, None, 10) for env_id in sorted(TASKS)]
-                         + [MIXED_DELAYS, MIXED_FIRST_DELAYS, OUT_OF_STEP])
+                         + [MIXED_DELAYS, MIXED_FIRST_DELAYS, MIXED_PIECES, OUT_OF_STEP])
 def test_vector_env_plays_the_single_envs_episodes(env_id, kwargs, first_states, seed):
     """Environment i of the batch seeded with s is a single env seeded with s + i, across autoresets."""
     n, steps = 5, 450  # two whole episodes and part of a third
