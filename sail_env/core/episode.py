@@ -120,19 +120,23 @@ class EpisodeCore:
         self.speed_at_cutoff[index] = plant.speed(params, cutoff)
         lag0 = spec.delay_steps(0, params.acceleration) * np.ones(k, dtype=np.int64)
         pre_control = spec.config.control_start_s - lag0 * spec.dt
-        pre_pieces = plant.coast_pieces(params, pre_control) if plant.noisy else np.zeros(k, dtype=np.int64)
-        sizes = self._normal_sizes(int(pre_pieces.max(initial=0)))
-        normals = np.stack([rng.standard_normal(sum(sizes)) for rng in rngs]) if sum(sizes) else None
-        pre_normals = None
-        if normals is not None:
-            pre, jitter, push, sensor = np.split(normals, np.cumsum(sizes)[:-1], axis=1)
-            pre_normals = pre.reshape(k, -1, n_states)
+        pre_pieces = np.zeros(k, dtype=np.int64)
+        if plant.noisy:
+            pre_pieces[:] = plant.coast_pieces(params, pre_control)
+        # Each environment draws only what it needs alone, whatever the others' pre-control pieces.
+        pre_normals = np.zeros((k, int(pre_pieces.max(initial=0)), n_states))
+        for row, (i, rng) in enumerate(zip(index, rngs)):
+            sizes = self._normal_sizes(int(pre_pieces[row]))
+            if not sum(sizes):
+                continue
+            pre, jitter, push, sensor = np.split(rng.standard_normal(sum(sizes)), np.cumsum(sizes)[:-1])
+            pre_normals[row, :pre_pieces[row]] = pre.reshape(-1, n_states)
             if self.jitter is not None:
-                self.jitter[index] = jitter.reshape(k, self.noise_steps, -1)
+                self.jitter[i] = jitter.reshape(self.noise_steps, -1)
             if self.push is not None:
-                self.push[index] = push
+                self.push[i] = push
             if self.sensor is not None:
-                self.sensor[index] = sensor.reshape(k, -1, n_states)
+                self.sensor[i] = sensor.reshape(-1, n_states)
 
         x = launch
         if np.any(pre_control > 0):
@@ -243,8 +247,11 @@ class EpisodeCore:
         remaining = np.maximum(self.cutoff_s[index] - (spec.config.control_start_s + step * spec.dt), 0.0)
         normals = None
         if plant.noisy:
-            pieces = int(plant.coast_pieces(params, remaining).max())
-            normals = np.stack([self.rngs[i].standard_normal((pieces, plant.n_states)) for i in index])
+            # Each environment draws its own number of pieces (padded for the batch): as alone.
+            pieces = np.broadcast_to(plant.coast_pieces(params, remaining), remaining.shape)
+            normals = np.zeros((len(index), int(pieces.max()), plant.n_states))
+            for row, i in enumerate(index):
+                normals[row, :pieces[row]] = self.rngs[i].standard_normal((pieces[row], plant.n_states))
         final, diverged = plant.coast(params, x, held, remaining, normals)
         return final, held, diverged
 

@@ -16,6 +16,9 @@ For a linear system with additive and multiplicative white noise the second mome
 
     dM/dt = Ã M + M Ãᵀ + S_F Ã_F M Ã_Fᵀ + S_d b bᵀ M[-1, -1]
 
+For the planar model the correction vanishes (``Ã_F² = 0``: the push scales forces that depend on
+positions only), so the two readings agree there; it matters for a push-scaled force on a velocity.
+
 so it is propagated exactly by one matrix exponential of the vectorised generator
 (after Van Loan 1978, IEEE TAC 23:395, who treats the additive case). The end state
 is then drawn from the Gaussian with these moments: exact for additive noise, a

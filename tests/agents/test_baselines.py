@@ -81,3 +81,21 @@ def test_passive_agent_never_steers():
     env = gym.make("LightSail-v0")
     agent = PassiveAgent(env.unwrapped.episode_spec)
     assert np.array_equal(agent.act(np.ones(5, dtype=np.float32)), np.zeros(2))
+
+
+@pytest.mark.parametrize("agent_cls", [LQRAgent, LQGAgent])
+def test_agents_saturate_inside_the_action_space_far_off_the_beam(agent_cls):
+    """A sail far off the beam asks for more than the beam can give, in either direction: the
+    action is the nearest one inside [-1, 1]², at both bounds."""
+    env = gym.make("LightSailDeepDish-v0")
+    agent = agent_cls(env.unwrapped.episode_spec)
+    obs, _ = env.reset(seed=0)
+    actions = []
+    for sign in (1.0, -1.0):
+        agent.reset()
+        far = obs.copy()
+        far[:4] = sign * 900.0
+        actions.append(agent.act(far))
+    for action in actions:
+        assert env.action_space.contains(action)
+    assert np.min(actions) == -1.0 and np.max(actions) == 1.0

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
-from sail_env.core.spec import MAX_PUSH_NOISE
+from sail_env.core.spec import MAX_PUSH_NOISE, Disturbances
 from sail_env.envs import LightSailEnv
 from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
 from sail_env.physics.config import MAX_CONTROL_STEPS
@@ -56,17 +56,24 @@ def test_realistic_disturbances_on_shallow_dishes(radius):
 
 
 def test_window_ending_exactly_at_the_cutoff_is_scored_there():
-    steps, info = episode(config=SEED.replace(control_window_s=0.35, beam_cutoff_s=0.35))
+    config = SEED.replace(control_window_s=0.35, beam_cutoff_s=0.35)
+    steps, info = episode(config=config)
     assert steps == 70 and info["cutoff_s"] == 0.35 and not info["diverged"]
+    # Nothing is left to coast: the scored state is the window's last, its pointing |Vx| / (F t / m).
+    assert info["terminal_state"] == info["state"]
+    speed = config.push_force_n / config.total_mass_kg * 0.35
+    assert info["terminal_pointing_rad"] == pytest.approx(abs(info["state"]["vx"]) / speed, rel=1e-12)
 
 
-@pytest.mark.parametrize("config, kwargs", [
-    (SEED.replace(control_window_s=0.3526, beam_cutoff_s=0.3526), {}),  # 71 whole steps end at 0.355 s
-    (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0), {"light_delay": True}),  # commands still in flight
-    (SEED.replace(beam_cutoff_s=2.0), {"cutoff_jitter_s": 1.5}),  # the earliest cut-off falls in the window
+@pytest.mark.parametrize("config, kwargs, earliest", [
+    (SEED.replace(control_window_s=0.3526, beam_cutoff_s=0.3526), {}, "0.3526"),  # 71 whole steps end at 0.355 s
+    (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0), {"light_delay": True}, "11"),  # commands in flight
+    # The last command, sent at 10.995 s, arrives 4 steps (D = ½ a t² / c = 20.2 ms) later: after 11.0175 s.
+    (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0175), {"light_delay": True}, "11.0175"),
+    (SEED.replace(beam_cutoff_s=2.0), {"cutoff_jitter_s": 1.5}, "0.5"),  # the earliest cut-off falls in the window
 ])
-def test_cutoff_before_the_last_command_arrives_is_refused(config, kwargs):
-    with pytest.raises(ValueError, match="beam_cutoff_s - cutoff_jitter_s"):
+def test_cutoff_before_the_last_command_arrives_is_refused(config, kwargs, earliest):
+    with pytest.raises(ValueError, match=f"beam_cutoff_s - cutoff_jitter_s = {earliest} s must be >="):
         LightSailEnv(config, **kwargs)
 
 
@@ -107,6 +114,13 @@ def test_light_round_trip_longer_than_the_window_is_refused():
         LightSailEnv(SEED.replace(control_start_s=60.0), light_delay=True)
     spec = LightSailEnv(SEED.replace(control_start_s=50.0), light_delay=True).episode_spec
     assert spec.history_length <= spec.n_steps + 2
+    # The limit is the round trip a t² / (c dt) at the window's end t = start + 1 s: 200 steps at
+    # t = √(200 c dt / a) = 54.75 s, so control may start at 53.7 s but not at 53.85 s.
+    end = math.sqrt(200 * SPEED_OF_LIGHT * 0.005 / SEED.axial_acceleration_m_s2)
+    assert end - 1.0 == pytest.approx(53.75, abs=0.005)
+    LightSailEnv(SEED.replace(control_start_s=53.7), light_delay=True)
+    with pytest.raises(ValueError, match="light_delay: the round trip"):
+        LightSailEnv(SEED.replace(control_start_s=53.85), light_delay=True)
 
 
 def test_windows_beyond_the_step_limit_are_refused():
@@ -122,10 +136,27 @@ def test_windows_beyond_the_step_limit_are_refused():
     ({"cutoff_jitter_s": 1e300}, "cutoff_jitter_s"),
     ({"start_half_widths": (1e308, 0, 0, 0)}, r"start_half_widths: \|x\| must be <= 2"),
     ({"start_half_widths": (0, 0, 0.06, 0)}, r"\|theta\|"),
+    ({"max_beam_offset_m": 0.0}, "^max_beam_offset_m must be finite and > 0"),
+    ({"max_beam_tilt_rad": math.inf}, "^max_beam_tilt_rad must be finite and > 0"),
 ])
 def test_extreme_sizes_are_refused_at_construction(kwargs, match):
     with pytest.raises(ValueError, match=match):
         LightSailEnv(**kwargs)
+
+
+@pytest.mark.parametrize("spread", [0.0, 0.1])
+def test_start_limits_keep_every_drawn_sail_in_the_beam(spread):
+    """A long sail (a / Lc = 0.04 < the 0.05 rad small-angle limit): a start may tilt up to
+    |θ| = a / (Lc (1 + s)), so that |Lc θ| ≤ a for the longest Lc the spread draws, and turn up to
+    |ω| = that / dt (not leaving within one step); just beyond either is refused."""
+    config = SEED.replace(com_distance_m=50.0, strut_length_m=100.0)
+    env = gym.make("LightSail-v0", config=config, parameter_spread=spread)
+    tilt = config.aperture_radius_m / (config.com_distance_m * (1 + spread))
+    rate = tilt / config.control_step_s
+    env.reset(seed=0, options={"initial_state": {"theta": 0.999 * tilt, "omega": 0.999 * rate}})
+    for state, name in (({"theta": 1.001 * tilt}, "theta"), ({"omega": 1.001 * rate}, "omega")):
+        with pytest.raises(ValueError, match=rf"initial_state: \|{name}\| must be <= {tilt if name == 'theta' else rate:.4g}"):
+            env.reset(seed=0, options={"initial_state": state})
 
 
 @pytest.mark.parametrize("state, name", [({"x": 1e308}, "x"), ({"vx": 1e308}, "vx"), ({"theta": 1e308}, "theta"),
@@ -218,3 +249,25 @@ def test_misread_vector_actions_are_refused_naming_the_shape(actions):
     envs.reset(seed=0)
     with pytest.raises(ValueError, match=r"actions must be real numbers of shape \(3, 2\)"):
         envs.step(actions)
+
+
+def test_disturbances_hold_the_sensor_noise_as_four_floats():
+    """However given (a list, NumPy numbers), the sensor noise is kept as a tuple of four floats: the
+    same task compares equal and hashes alike."""
+    given = Disturbances(sensor_noise_std=[np.float32(1e-4), 0, 0, np.int64(1)])
+    assert given.sensor_noise_std == (float(np.float32(1e-4)), 0.0, 0.0, 1.0)
+    assert all(type(v) is float for v in given.sensor_noise_std)
+    same = Disturbances(sensor_noise_std=given.sensor_noise_std)
+    assert given == same and hash(given) == hash(same)
+
+
+@pytest.mark.parametrize("name", ["beam_jitter_m", "push_noise", "cutoff_jitter_s", "parameter_spread"])
+def test_negative_disturbance_sizes_are_refused(name):
+    with pytest.raises(ValueError, match=f"^{name} must be finite and >= 0, got -0.01"):
+        Disturbances(**{name: -0.01})
+
+
+def test_parameter_spread_range_is_half_open():
+    Disturbances(parameter_spread=0.4999)
+    with pytest.raises(ValueError, match=r"parameter_spread must be in \[0, 0.5\), got 0.5"):
+        Disturbances(parameter_spread=0.5)

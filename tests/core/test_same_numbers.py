@@ -10,6 +10,7 @@ import pytest
 
 import sail_env  # noqa: F401
 from sail_env.physics import DEEP_DISH, SEED
+from sail_env.physics.planar import STATE_NAMES
 from sail_env.tasks import PLANAR_TASKS as TASKS
 
 REFERENCE = json.loads((Path(__file__).parents[1] / "data" / "episodes_v0_1_0.json").read_text())
@@ -38,13 +39,29 @@ def test_noise_free_episodes_are_those_of_v0_1_0(case):
         assert info["is_success"] == recorded["success"] and info["diverged"] == recorded["diverged"]
 
 
-@pytest.mark.parametrize("env_id", sorted(TASKS))
-def test_vector_env_plays_the_single_envs_episodes(env_id):
+#: The realistic task started 9.25 s out: the parameter draws end the window with one-way delays of
+#: 3 and 4 steps in one batch, so the commands still in flight run out at different steps.
+MIXED_DELAYS = ("LightSailRealistic-v0", {"config": DEEP_DISH.replace(control_start_s=9.25)}, None, 10)
+#: Seeded with 0, environment 3's draw starts control with a 4-step delay, the others with 3.
+MIXED_FIRST_DELAYS = ("LightSailRealistic-v0", {}, None, 0)
+#: Strong push noise makes the spread grow as e^{0.75 t} over the coast (parametric excitation), so
+#: the coast runs in pieces of e^20; cut-offs around 614 s give 23 or 24 of them in one batch.
+MIXED_PIECES = ("LightSailDeepDish-v0", {"config": DEEP_DISH.replace(beam_cutoff_s=614.0), "push_noise": 0.2,
+                                         "cutoff_jitter_s": 5.0}, None, 10)
+#: Environment 0 starts leaving the beam, ends at its first step and plays on one step behind the
+#: others: later windows end for only part of the batch, each with its own parameter draw.
+OUT_OF_STEP = ("LightSailRealistic-v0", {}, np.array([[1.9, 300.0, 0.0, 0.0]] + [[0.0, 0.0, 0.0, 0.0]] * 4), 10)
+
+
+@pytest.mark.parametrize("env_id, kwargs, first_states, seed", [(env_id, {}, None, 10) for env_id in sorted(TASKS)]
+                         + [MIXED_DELAYS, MIXED_FIRST_DELAYS, MIXED_PIECES, OUT_OF_STEP])
+def test_vector_env_plays_the_single_envs_episodes(env_id, kwargs, first_states, seed):
     """Environment i of the batch seeded with s is a single env seeded with s + i, across autoresets."""
     n, steps = 5, 450  # two whole episodes and part of a third
     actions = np.random.default_rng(0).uniform(-1, 1, (steps, n, 2)).astype(np.float32)
-    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
-    obs, _ = envs.reset(seed=10)
+    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    options = None if first_states is None else {"initial_state": first_states}
+    obs, _ = envs.reset(seed=seed, options=options)
     batch_obs, batch_rewards, batch_scores = [obs], [], []
     for k in range(steps):
         obs, reward, terminated, truncated, info = envs.step(actions[k])
@@ -54,11 +71,13 @@ def test_vector_env_plays_the_single_envs_episodes(env_id):
             final = info["final_info"]
             batch_scores += [(i, final["terminal_pointing_rad"][i], final["is_success"][i]) for i in np.flatnonzero(terminated)]
             np.testing.assert_array_equal(info["_final_obs"], terminated)
+            assert all(np.asarray(value).dtype.kind in "fb" for value in final.values())  # numbers, as SyncVectorEnv's
     batch_obs, batch_rewards = np.array(batch_obs), np.array(batch_rewards)
     single_scores = []
     for i in range(n):
-        env = gym.make(env_id)
-        obs, _ = env.reset(seed=10 + i)
+        env = gym.make(env_id, **kwargs)
+        options = None if first_states is None else {"initial_state": dict(zip(STATE_NAMES, first_states[i]))}
+        obs, _ = env.reset(seed=seed + i, options=options)
         observations, rewards = [obs], []
         for k in range(steps):
             obs, reward, terminated, truncated, info = env.step(actions[k, i])

@@ -7,6 +7,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+import scipy.linalg
 
 import sail_env  # noqa: F401  (registers the ids)
 from agents import LQRAgent, PassiveAgent
@@ -45,19 +46,51 @@ def test_sensor_noise_has_its_configured_size_on_each_observed_component():
 
 
 def test_beam_jitter_acts_on_the_offset_in_the_window():
-    """From on the beam with zero commands, k steps of per-step jitter σ leave the covariance
-    Σ_j (Φ^j Γ_d) (Φ^j Γ_d)ᵀ σ², Γ_d the offset's column (the tilt's is Lc times larger)."""
+    """From on the beam with a constant command u, k steps of per-step jitter σ added to the offset
+    leave the noise-free mean Σ_j Φ^j Γ u and the covariance Σ_j (Φ^j Γ_d) (Φ^j Γ_d)ᵀ σ², Γ_d the
+    offset's column (the tilt's is Lc times larger)."""
     sigma, k = 1e-4, 20
     envs = vector(env_id="LightSailDeepDish-v0", beam_jitter_m=sigma)
     envs.reset(seed=1, options={"initial_state": {}})
-    steps(envs, k)
+    action = np.array([0.5, 0.0], dtype=np.float32)
+    steps(envs, k, np.tile(action, (N, 1)))
     phi, gamma = PlanarModel(DEEP_DISH).discretize(DEEP_DISH.control_step_s)
-    expected, column = np.zeros((4, 4)), gamma[:, 0]
+    u = action * envs.episode_spec.action_scale
+    expected, expected_mean, column = np.zeros((4, 4)), np.zeros(4), gamma[:, 0]
     for _ in range(k):
         expected += sigma**2 * np.outer(column, column)
+        expected_mean = phi @ expected_mean + gamma @ u
         column = phi @ column
     measured = envs.core.x.var(axis=0)
     np.testing.assert_array_less(np.abs(measured / np.diag(expected) - 1), 4 * math.sqrt(2 / N))
+    np.testing.assert_array_less(np.abs(envs.core.x.mean(axis=0) - expected_mean), 4 * np.sqrt(np.diag(expected) / N))
+
+
+def test_beam_jitter_of_every_step_is_its_own_draw_with_light_delay():
+    """With light delay the first observations show the lag steps flown before control; zero commands
+    make each step's jitter readable from the states: w_k = Γ_d·(x_{k+1} − Φ x_k) / (|Γ_d|² σ). Over
+    the lag steps and the whole window the w_k have the configured size and no two are the same draw."""
+    sigma, config = 1e-4, DEEP_DISH.replace(control_start_s=10.0)
+    env = gym.make("LightSail-v0", config=config, light_delay=True, beam_jitter_m=sigma)
+    spec = env.unwrapped.episode_spec
+    obs, info = env.reset(seed=0)
+    lag = int(spec.delay_steps(0))
+    observations, states, done = [obs], [list(info["state"].values())], False
+    while not done:
+        obs, _, done, _, info = env.step(np.zeros(2, dtype=np.float32))
+        observations.append(obs)
+        states.append(list(info["state"].values()))
+    before = [spec.observation_to_state(observations[k]) for k in range(lag)]  # steps −lag … −1
+    path = np.array(before + states)
+    phi, gamma = PlanarModel(config).discretize(config.control_step_s)
+    column = gamma[:, 0]
+    w = (path[1:] - path[:-1] @ phi.T) @ column / (column @ column) / sigma
+    assert len(w) == lag + config.control_steps and lag == 3
+    assert abs(w.mean()) < 4 / math.sqrt(len(w)) and abs(w.std() - 1) < 4 / math.sqrt(2 * len(w))
+    # No draw is used twice where a misplaced noise index could reuse one (the lag steps and the
+    # window's first 3 lag): the recovery is good to ~2e-6 (float32 observations before control).
+    first = w[:4 * lag]
+    assert np.abs(first[:, None] - first[None, :])[np.triu_indices(len(first), 1)].min() > 1e-3
 
 
 def test_beam_jitter_keeps_acting_over_the_coast_with_the_documented_size():
@@ -78,6 +111,24 @@ def test_beam_jitter_keeps_acting_over_the_coast_with_the_documented_size():
     speed = info["final_info"]["terminal_pointing_rad"] * model.equilibrium_speed(600.0)
     _, total = propagate_moments(model, np.zeros(4), np.zeros((4, 4)), np.zeros(2), 600.0, noise)
     assert math.sqrt(np.mean(speed**2)) == pytest.approx(math.sqrt(total[1, 1]), rel=4 / math.sqrt(2 * 1000))
+
+
+def test_push_noise_acts_in_the_window():
+    """A per-step push error ε (σ per step) from a displaced start, zero commands: to first order in σ
+    the state after k steps has the variance σ² Σ_j (Φ^{k-1-j} D Φ^j x0)², with D = ∂Φ/∂ε taken by
+    central differences of exact exponentials of (A + ε A_F) dt."""
+    sigma, k, start = 0.01, 20, np.array([1e-2, 0.0, 0.0, 0.0])
+    envs = vector(env_id="LightSailDeepDish-v0", push_noise=sigma)
+    envs.reset(seed=4, options={"initial_state": dict(zip(("x", "vx", "theta", "omega"), start))})
+    steps(envs, k)
+    model, dt, h = PlanarModel(DEEP_DISH), DEEP_DISH.control_step_s, 1e-6
+    a_push, _ = model.push_sensitivity
+    phi = scipy.linalg.expm(model.A * dt)
+    d = (scipy.linalg.expm((model.A + h * a_push) * dt) - scipy.linalg.expm((model.A - h * a_push) * dt)) / (2 * h)
+    powers = [np.linalg.matrix_power(phi, j) for j in range(k)]
+    expected = sigma**2 * sum((powers[k - 1 - j] @ d @ powers[j] @ start) ** 2 for j in range(k))
+    measured = envs.core.x.var(axis=0)
+    np.testing.assert_array_less(np.abs(measured / expected - 1), 4 * math.sqrt(2 / N))
 
 
 def test_push_noise_acts_over_the_coast():
@@ -113,6 +164,22 @@ def test_parameter_spread_draws_each_episode_from_the_box():
     assert np.unique(envs.core.params.a[:, 3, 2]).size == N
 
 
+def test_parameter_spread_coasts_each_episode_with_its_own_sail():
+    """Without noise the coast is exact: the scored state is exp(A T) of the window's last state for
+    the drawn sail's A (zero command held), T the 599 s from the window's end to cut-off."""
+    env = gym.make("LightSailDeepDish-v0", parameter_spread=0.1)
+    for seed in range(3):
+        env.reset(seed=seed)
+        a = env.unwrapped.core.params.a[0]
+        assert not np.array_equal(a, PlanarModel(DEEP_DISH).A)
+        for _ in range(DEEP_DISH.control_steps):
+            _, _, done, _, info = env.step(np.zeros(2, dtype=np.float32))
+        assert done
+        expected = scipy.linalg.expm(a * 599.0) @ np.array(list(info["state"].values()))
+        np.testing.assert_allclose(list(info["terminal_state"].values()), expected, rtol=1e-7,
+                                   atol=1e-9 * np.abs(expected).max())
+
+
 def test_cutoff_jitter_is_uniform_over_its_width():
     width = 5.0
     envs = vector(cutoff_jitter_s=width)
@@ -125,6 +192,19 @@ def test_cutoff_jitter_is_uniform_over_its_width():
 def _states(env, actions, seed=0, options=None):
     env.reset(seed=seed, options=options)
     return np.array([list(env.step(a)[4]["state"].values()) for a in actions])
+
+
+@pytest.mark.parametrize("light_delay", [False, True])
+def test_delay_rule_gives_whole_steps_for_every_step_asked(light_delay):
+    """``EpisodeSpec.delay_steps`` broadcasts over steps to integers: round(½ a t² / c / dt), or zero."""
+    config = DEEP_DISH.replace(control_start_s=10.0)
+    spec = gym.make("LightSail-v0", config=config, light_delay=light_delay).unwrapped.episode_spec
+    steps_asked = np.arange(0, 201, 50)
+    t = config.control_start_s + steps_asked * config.control_step_s
+    expected = np.rint(0.5 * config.axial_acceleration_m_s2 * t**2 / SPEED_OF_LIGHT / config.control_step_s)
+    delays = spec.delay_steps(steps_asked)
+    assert delays.shape == steps_asked.shape and delays.dtype.kind == "i"
+    np.testing.assert_array_equal(delays, expected if light_delay else np.zeros(len(steps_asked)))
 
 
 @pytest.mark.parametrize("light_delay", [False, True])

@@ -4,6 +4,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+import scipy.linalg
 from gymnasium.utils.env_checker import check_env
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -11,7 +12,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.envs import LightSailEnv
-from sail_env.physics import SEED, PlanarModel, pointing_error
+from sail_env.physics import DEEP_DISH, SEED, PlanarModel, pointing_error
 from sail_env.tasks import PLANAR_TASKS as TASKS
 
 ZERO = np.zeros(2, dtype=np.float32)
@@ -159,6 +160,41 @@ def test_light_delay_lags_observation_and_command():
     # The command history (newest first, distinct commands) and its length: tests/envs/test_disturbances.py.
 
 
+@pytest.mark.parametrize("start", [0.5, 10.0])
+def test_launch_state_is_flown_exactly_to_control_start(start):
+    """Control starting ``start`` s into the flight: the state at control start is the exact
+    propagation exp(A start) of the launch state (zero beam input before control)."""
+    config = DEEP_DISH.replace(control_start_s=start)
+    launch = {"x": 1e-3, "vx": 0.0, "theta": 1e-4, "omega": 0.0}
+    _, info = gym.make("LightSail-v0", config=config).reset(seed=0, options={"initial_state": launch})
+    expected = scipy.linalg.expm(PlanarModel(config).A * start) @ np.array(list(launch.values()))
+    np.testing.assert_allclose(list(info["state"].values()), expected, rtol=1e-9, atol=1e-15)
+
+
+def _check_delayed_observations(env, seed, steps=20):
+    """The observation at step k shows the true state at step k − D(k), D(k) = round(½ a t² / c / dt)
+    with the episode's own acceleration, also before control (k < D(k)): with zero commands, the
+    exact propagation exp(A (k − D(k)) dt) of the state at control start. Returns D."""
+    spec = env.unwrapped.episode_spec
+    obs, info = env.reset(seed=seed)
+    core = env.unwrapped.core
+    a, accel = core.params.a[0], core.params.acceleration[0]
+    t = spec.config.control_start_s + np.arange(steps + 1) * spec.dt
+    delays = np.rint(0.5 * accel * t**2 / 299_792_458.0 / spec.dt).astype(int)
+    start = np.array(list(info["state"].values()))
+    observations = [obs] + [env.step(np.zeros(2, dtype=np.float32))[0] for _ in range(steps)]
+    for k, observed in enumerate(observations):
+        expected = scipy.linalg.expm(a * (k - delays[k]) * spec.dt) @ start
+        np.testing.assert_allclose(spec.observation_to_state(observed), expected, rtol=1e-5, atol=1e-12)
+    return delays
+
+
+def test_light_delayed_observation_shows_the_drawn_sails_own_past():
+    env = gym.make("LightSailRealistic-v0", sensor_noise_std=(0, 0, 0, 0), beam_jitter_m=0.0, push_noise=0.0)
+    delays = _check_delayed_observations(env, seed=3)
+    assert delays[0] == 4 != env.unwrapped.episode_spec.delay_steps(0)  # this draw's delay is not the nominal one
+
+
 @pytest.mark.parametrize("disturbance", [{"beam_jitter_m": 1e-5}, {"push_noise": 0.01}, {"cutoff_jitter_s": 3.0},
                                          {"parameter_spread": 0.1}, {"sensor_noise_std": (1e-4, 1e-2, 1e-5, 1e-3)}])
 def test_each_disturbance_alone_changes_the_episode_but_stays_finite(disturbance):
@@ -202,3 +238,13 @@ def test_long_light_delay_with_noise_runs_to_the_cutoff():
     assert env.unwrapped.episode_spec.delay_steps(0) >= 20
     _, rewards, infos = _run(env, seed=0)
     assert len(rewards) == SEED.control_steps and np.isfinite(infos[-1]["terminal_pointing_rad"])
+
+
+def test_episode_spec_defaults_are_those_of_the_default_env():
+    """``EpisodeSpec()`` (what a controller may design on) is the default ``LightSailEnv``'s task."""
+    from sail_env.core import EpisodeSpec
+
+    default, env_spec = EpisodeSpec(), LightSailEnv().episode_spec
+    assert default.config == env_spec.config == SEED and default.disturbances == env_spec.disturbances
+    np.testing.assert_array_equal(default.action_scale, env_spec.action_scale)
+    np.testing.assert_array_equal(default.start_half_widths, env_spec.start_half_widths)

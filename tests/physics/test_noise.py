@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 import scipy.integrate
+import scipy.linalg
 
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel, WhiteNoise, propagate_moments
 
@@ -13,6 +14,14 @@ def test_noise_free_moments_are_the_exact_propagation():
     phi, gamma = model.discretize(3.7)
     np.testing.assert_allclose(out_mean, phi @ mean + gamma @ beam, rtol=1e-12)
     np.testing.assert_array_equal(out_cov, 0)
+
+
+@pytest.mark.parametrize("noise", [WhiteNoise(), WhiteNoise(beam_jitter_psd_m2s=1e-10, push_psd_s=1e-4)])
+def test_zero_duration_keeps_the_moments(noise):
+    mean, cov = np.array([1e-3, 0.1, 1e-4, 0.0]), np.diag([1e-6, 1e-4, 1e-8, 1e-6])
+    out_mean, out_cov = propagate_moments(PlanarModel(DEEP_DISH), mean, cov, np.array([1e-3, 2e-4]), 0.0, noise)
+    np.testing.assert_allclose(out_mean, mean, rtol=1e-12)
+    np.testing.assert_allclose(out_cov, cov, rtol=1e-9, atol=1e-20)
 
 
 def test_additive_jitter_covariance_matches_the_integral():
@@ -63,11 +72,60 @@ def test_push_noise_moments_match_monte_carlo():
     assert np.all(var > 0) and np.all(np.abs(mc_mean - mean0) > 4 * np.sqrt(var / paths))  # all components move
 
 
+def test_stratonovich_correction_matches_geometric_brownian_motion():
+    """A push-scaled force on the velocity itself, ``dV = λ V (dt + dW_F)`` read as Stratonovich, is
+    geometric Brownian motion: ``E[V] = V0 exp((λ + ½ S λ²) t)``, ``E[V²] = V0² exp(2 (λ + S λ²) t)``.
+
+    The planar model never shows the ½ S_F A_F² correction: its push scales forces that depend on
+    positions only, so ``A_F² = 0`` and ``A_F B_F = 0`` (asserted last). This system makes it the
+    whole difference between the Stratonovich and the Itô mean (exp(-0.5) against exp(-1)).
+    """
+    from sail_env.physics.noise import mean_and_covariance, moment_generator, second_moment
+    from sail_env.physics.planar import VX, push_sensitivity
+
+    rate, psd, duration, v0 = -1.0, 1.0, 1.0, 2.0
+    a = np.zeros((4, 4))
+    a[VX, VX] = rate
+    start = np.array([0.0, v0, 0.0, 0.0])
+    gen = moment_generator(a, np.zeros((4, 2)), np.zeros(2), WhiteNoise(push_psd_s=psd))
+    mean, cov = mean_and_covariance(scipy.linalg.expm(gen * duration) @ second_moment(start, np.zeros((4, 4))))
+    expected_mean = v0 * np.exp((rate + 0.5 * psd * rate**2) * duration)
+    expected_square = v0**2 * np.exp(2 * (rate + psd * rate**2) * duration)
+    assert mean[VX] == pytest.approx(expected_mean, rel=1e-12)
+    assert cov[VX, VX] + mean[VX] ** 2 == pytest.approx(expected_square, rel=1e-12)
+    for config in (SEED, DEEP_DISH):
+        model = PlanarModel(config)
+        a_push, b_push = push_sensitivity(model.A, model.B)
+        np.testing.assert_array_equal(a_push @ a_push, 0)
+        np.testing.assert_array_equal(a_push @ b_push, 0)
+
+
+def test_moment_growth_rate_with_additive_noise_is_the_sails_own():
+    """With additive noise only, the second moment's generator has the eigenvalues λ_i + λ_j of A's:
+    half its largest real part is the sail's growth rate (``PlanarModel.stability``, from the closed-form
+    roots of the 2x2 stiffness; zero for the oscillating deep dish), per model of a batch."""
+    from sail_env.physics import FLAT
+    from sail_env.physics.noise import moment_growth_rate
+
+    noise = WhiteNoise(beam_jitter_psd_m2s=1e-10)
+    flat, dish = PlanarModel(FLAT), PlanarModel(DEEP_DISH)
+    assert flat.stability.growth_rate > 50.0 and dish.stability.growth_rate == 0.0
+    assert moment_growth_rate(flat.A, flat.B, noise) == pytest.approx(flat.stability.growth_rate, rel=1e-9)
+    batch = moment_growth_rate(np.stack([flat.A, dish.A]), np.stack([flat.B, dish.B]), noise)
+    assert batch.shape == (2,)
+    assert batch == pytest.approx([flat.stability.growth_rate, 0.0], rel=1e-9, abs=1e-9 * flat.stability.growth_rate)
+
+
 def test_noise_validation():
     with pytest.raises(ValueError, match="push_psd_s"):
         WhiteNoise(push_psd_s=-1.0)
     with pytest.raises(ValueError, match="duration"):
         propagate_moments(PlanarModel(SEED), np.zeros(4), np.zeros((4, 4)), np.zeros(2), -1.0, WhiteNoise())
+    from sail_env.physics.noise import tolerable_jitter_psd
+
+    for probability in (0.0, 1.0, 1.5):
+        with pytest.raises(ValueError, match=rf"probability must be in \(0, 1\), got {probability}"):
+            tolerable_jitter_psd(PlanarModel(SEED), 590.0, 1e-8, 600.0, probability)
 
 
 def test_tolerable_jitter_matches_the_driven_oscillator():
