@@ -45,7 +45,7 @@ PLANAR_TASKS: dict[str, dict] = {
 RIGID3D_TASKS: dict[str, dict] = {
     "LightSail3D-v0": {},
     "LightSail3DRealistic-v0": {"curvature_radius_m": DEEP_DISH.curvature_radius_m, "absorptivity": 0.1,
-                                "spin_rad_s": 1.0, "control_start_s": 10.0,
+                                "spin_rad_s": 1.0, "control_start_s": 10.0, "relativistic": True,
                                 "start_half_widths": tuple(w for w in DEEP_DISH_START_HALF_WIDTHS for _ in range(2)),
                                 **REALISTIC_DISTURBANCES,
                                 "sensor_noise_std": tuple(s for s in REALISTIC_DISTURBANCES["sensor_noise_std"]

@@ -136,7 +136,7 @@ class EpisodeCore:
 
         x = launch
         if np.any(pre_control > 0):
-            x, _ = plant.coast(params, launch, rest, pre_control, pre_normals)
+            x, _ = plant.coast(params, launch, rest, pre_control, pre_normals, np.zeros(k))
         self.step_index[index] = 0
         self.finished[index] = False
         if self.delayed:
@@ -243,9 +243,12 @@ class EpisodeCore:
         remaining = np.maximum(self.cutoff_s[index] - (spec.config.control_start_s + step * spec.dt), 0.0)
         normals = None
         if plant.noisy:
-            pieces = int(plant.coast_pieces(params, remaining).max())
-            normals = np.stack([self.rngs[i].standard_normal((pieces, plant.n_states)) for i in index])
-        final, diverged = plant.coast(params, x, held, remaining, normals)
+            # Each environment draws its own pieces' normals: a batch plays the single episodes.
+            pieces = plant.coast_pieces(params, remaining)
+            normals = np.zeros((len(index), int(pieces.max()), plant.n_states))
+            for row, (i, count) in enumerate(zip(index, pieces)):
+                normals[row, :count] = self.rngs[i].standard_normal((count, plant.n_states))
+        final, diverged = plant.coast(params, x, held, remaining, normals, self.cutoff_s[index] - remaining)
         return final, held, diverged
 
     def observe(self, index: np.ndarray | None = None) -> np.ndarray:
