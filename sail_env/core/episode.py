@@ -87,7 +87,7 @@ class EpisodeCore:
         # Standard normals of the window, drawn at reset: jitter and push per step, sensor per observation.
         # Steps run from lag0 before control to the last command's arrival: at most n + 2 max_delay.
         self.noise_steps = spec.n_steps + 2 * spec.max_delay + 2
-        self.jitter = np.zeros((n, self.noise_steps, len(plant.jitter_inputs))) if dist.beam_jitter_m else None
+        self.jitter = np.zeros((n, self.noise_steps, len(plant.jitter_inputs))) if plant.jittered else None
         self.push = np.zeros((n, self.noise_steps)) if dist.push_noise else None
         self.sensor = np.zeros((n, spec.n_steps + 1, plant.n_states)) if dist.any_sensor_noise else None
         self._rows = np.arange(n)
@@ -162,7 +162,10 @@ class EpisodeCore:
         """One plant step of environments ``index`` with the per-step noise of column ``noise_column``."""
         if self.jitter is not None:
             u = u.copy()
-            u[:, list(self.spec.plant.jitter_inputs)] += self.spec.disturbances.beam_jitter_m * self.jitter[index, noise_column]
+            lag = self.lag0[index] if self.delayed else 0
+            middle = self.spec.config.control_start_s + (noise_column - lag + 0.5) * self.spec.dt
+            std = self.spec.plant.jitter_std(params, middle * np.ones(len(index)))
+            u[:, list(self.spec.plant.jitter_inputs)] += std * self.jitter[index, noise_column]
         push = None if self.push is None else self.spec.disturbances.push_noise * self.push[index, noise_column]
         return self.spec.plant.step(params, x, u, push)
 

@@ -20,7 +20,7 @@ DEFAULT_POWER_CONTROL = 0.1
 def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  curvature_radius_m: float = SEED.curvature_radius_m, com_distance_m: float = SEED.com_distance_m,
                  absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
-                 relativistic: bool = False, power_control: bool | float = False,
+                 relativistic: bool = False, ground_jitter_rad: float = 0.0, power_control: bool | float = False,
                  control_start_s: float = SEED.control_start_s, max_beam_offset_m: float = 0.02,
                  max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
                  sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
@@ -42,7 +42,7 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                            com_distance_m=com_distance_m, absorptivity=absorptivity,
                            reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
     flight = RigidFlight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
-                         relativistic=relativistic, control_start_s=control_start_s)
+                         relativistic=relativistic, ground_jitter_rad=ground_jitter_rad, control_start_s=control_start_s)
     return EpisodeSpec(flight, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
                        start_half_widths=start_half_widths,
                        disturbances=Disturbances(sensor_noise_std=sensor_noise_std, beam_jitter_m=beam_jitter_m,
@@ -136,6 +136,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``spin_rad_s`` | 0 | spin about the sail axis (couples the tilt axes) |
     | ``power_control`` | False | True (±10 %) or a relative power: a fifth action |
     | ``relativistic`` | False | relativistic push with the Doppler factor (see below) |
+    | ``ground_jitter_rad`` | 0 | σ of the ground pointing angle per step: the spot moves by ``D(t)·δ`` on both axes |
     | ``control_start_s`` | 0 | flight time at which control starts |
     | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 |
     | ``start_half_widths`` | see above | 8 half-widths in state order |

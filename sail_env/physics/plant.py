@@ -164,9 +164,20 @@ class LinearPlant:
         """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
         return np.maximum(1, np.ceil(duration * p.growth / GROWTH_PER_PIECE).astype(np.int64))
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
-        """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held (:mod:`sail_env.physics.noise`)."""
+    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held at flight time ``t`` (k,)
+        (:mod:`sail_env.physics.noise`)."""
         raise NotImplementedError
+
+    @property
+    def jittered(self) -> bool:
+        """Whether the beam's landing offset jitters during the window."""
+        return bool(self.beam_jitter_m)
+
+    def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
+        """Standard deviation [m] of the beam's landing offset during a step at flight time ``t``
+        (k,): a float, or (k, 1)."""
+        return self.beam_jitter_m
 
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
               normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -214,7 +225,7 @@ class LinearPlant:
         order in the piece's length): of the second moments with noise, else ``(Φ, Γu)``."""
         q = self._coast_params(p, u, middle)
         if self.noisy:
-            return scipy.linalg.expm(self._moment_generator(q, u) * piece[:, None, None])
+            return scipy.linalg.expm(self._moment_generator(q, u, middle) * piece[:, None, None])
         if q.shared and np.all(piece == piece[0]):
             phi, gamma = self.nominal.discretize(float(piece[0]))
         else:
@@ -317,7 +328,7 @@ class PlanarPlant(LinearPlant):
         """Flight direction ``|Vx| / Vz`` [rad] if the beam is cut at ``t``."""
         return np.abs(x[:, VX]) / self.speed(p, t)
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
+    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         return moment_generator(p.a, p.b, u, self.white_noise)
 
     def rate_scale(self) -> float:

@@ -59,6 +59,8 @@ class RigidFlight:
         relativistic: The axial flight follows the relativistic law with the Doppler factor
             (:func:`~sail_env.physics.rigid3d.flight.fly`): the push and every radiation term fall
             along the flight by the power factor ``(1−β)/(1+β)``.
+        ground_jitter_rad: Standard deviation of the ground station's pointing angle per control
+            step: the spot moves by ``D(t)·δ`` at the sail on both axes (docs/physics.md §12).
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
             :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
     """
@@ -67,6 +69,7 @@ class RigidFlight:
     spin_rad_s: float = 0.0
     power_control: float = 0.0
     relativistic: bool = False
+    ground_jitter_rad: float = 0.0
     beam_cutoff_s: float = SEED.beam_cutoff_s
     control_step_s: float = SEED.control_step_s
     control_window_s: float = SEED.control_window_s
@@ -86,6 +89,8 @@ class RigidFlight:
         for name in ("beam_cutoff_s", "control_step_s", "control_window_s"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.ground_jitter_rad < 0:
+            raise ValueError(f"ground_jitter_rad must be >= 0, got {self.ground_jitter_rad}")
         if not 0 <= self.power_control <= 0.5:
             raise ValueError(f"power_control must be in [0, 0.5], got {self.power_control}")
         if self.control_start_s < 0:
@@ -143,17 +148,19 @@ class RigidPlant(LinearPlant):
         self.nominal_acceleration = lin.push_n / lin.mass_kg
         self.fixed_state = {"spin": flight.spin_rad_s}  # a launch state may name it, not change it
         self.flight: Flight | None = None
-        self.time_varying = flight.relativistic
-        if flight.relativistic:
+        self.ground_jitter_rad = flight.ground_jitter_rad
+        self.time_varying = flight.relativistic or flight.ground_jitter_rad > 0
+        if self.time_varying:
             # Without diffraction the flight of a sail with r times the nominal F/m is the nominal
             # one at r t (d(γβ)/dt = r F₀ f(β) / (m₀ c)): one integration serves every draw.
             fastest = (1 + parameter_spread) / (1 - parameter_spread)
-            self.flight = fly(self.sail, 2.0 * flight.beam_cutoff_s * fastest)
+            self.flight = fly(self.sail, 2.0 * flight.beam_cutoff_s * fastest, relativistic=flight.relativistic)
         window = self.power_factor(np.ones(1), np.full(1, flight.window_middle_s))[0]
-        nominal_a = self.kinematics + window * self.radiation if self.flight is not None else lin.A.copy()
+        nominal_a = self.kinematics + window * self.radiation if flight.relativistic else lin.A.copy()
         nominal_b = window * b
         super().__init__(LinearModel(nominal_a, nominal_b, (window * self.radiation, nominal_b)),
                          flight.control_step_s, parameter_spread, beam_jitter_m, push_noise)
+        self.noisy = self.noisy or self.ground_jitter_rad > 0
 
     @property
     def power_control(self) -> bool:
@@ -242,7 +249,7 @@ class RigidPlant(LinearPlant):
     def speed(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
         """Axial speed ``Vz`` [m/s] of the centred sail: ``a t`` (Newtonian) or the relativistic law
         with the Doppler factor (:mod:`sail_env.physics.relativity`)."""
-        if self.flight is None:
+        if self.flight is None or not self.flight.relativistic:
             return p.acceleration * t
         return self.flight.speed(self._flight_time(p.acceleration / self.nominal_acceleration, t))
 
@@ -275,9 +282,23 @@ class RigidPlant(LinearPlant):
         return dataclasses.replace(p, a=self.kinematics + scale[:, None, None] * a_rad,
                                    b=scale[:, None, None] * p.b, shared=False)
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
+    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         a_rad = p.a - self.kinematics
-        return moment_generator(p.a, p.b, u, self.white_noise, (a_rad, p.b), self.jitter_inputs)
+        psd = None if not self.ground_jitter_rad else self.jitter_std(p, t)[:, 0] ** 2 * self.dt
+        return moment_generator(p.a, p.b, u, self.white_noise, (a_rad, p.b), self.jitter_inputs, psd)
+
+    @property
+    def jittered(self) -> bool:
+        return bool(self.beam_jitter_m or self.ground_jitter_rad)
+
+    def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
+        """The landing jitter and the ground jitter ``D(t)·δ`` (independent; ``D`` of the draw's flight)."""
+        if not self.ground_jitter_rad:
+            return self.beam_jitter_m
+        ratio = p.acceleration / self.nominal_acceleration
+        # β_r(t) = β(r t), so D_r(t) = ∫ β(r s) c ds = D(r t) / r.
+        distance = self.flight.distance(self._flight_time(ratio, t)) / ratio
+        return np.hypot(self.beam_jitter_m, distance * self.ground_jitter_rad)[:, None]
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""
