@@ -19,6 +19,7 @@ which env class and vector entry point each family uses).
 from __future__ import annotations
 
 from sail_env.physics.config import DEEP_DISH, SEED
+from sail_env.physics.rigid3d.jitter import GROUND_JITTER_BENCHMARK_RAD
 
 #: The deep dish restores its tilt stiffly, so tilt barely reaches V⊥; a wider lateral
 #: start (±3 cm, ±0.6 m/s) makes the passive sail fail on about half of the episodes.
@@ -45,9 +46,11 @@ PLANAR_TASKS: dict[str, dict] = {
 RIGID3D_TASKS: dict[str, dict] = {
     "LightSail3D-v0": {},
     "LightSail3DRealistic-v0": {"curvature_radius_m": DEEP_DISH.curvature_radius_m, "absorptivity": 0.1,
-                                "spin_rad_s": 1.0, "control_start_s": 10.0,
+                                "spin_rad_s": 1.0, "control_start_s": 10.0, "relativistic": True,
+                                # The ground station's pointing jitter replaces the landing offset's (§12).
+                                "ground_jitter_rad": GROUND_JITTER_BENCHMARK_RAD,
                                 "start_half_widths": tuple(w for w in DEEP_DISH_START_HALF_WIDTHS for _ in range(2)),
-                                **REALISTIC_DISTURBANCES,
+                                **REALISTIC_DISTURBANCES, "beam_jitter_m": 0.0,
                                 "sensor_noise_std": tuple(s for s in REALISTIC_DISTURBANCES["sensor_noise_std"]
                                                           for _ in range(2))},
 }

@@ -87,7 +87,7 @@ class EpisodeCore:
         # Standard normals of the window, drawn at reset: jitter and push per step, sensor per observation.
         # Steps run from lag0 before control to the last command's arrival: at most n + 2 max_delay.
         self.noise_steps = spec.n_steps + 2 * spec.max_delay + 2
-        self.jitter = np.zeros((n, self.noise_steps, len(plant.jitter_inputs))) if dist.beam_jitter_m else None
+        self.jitter = np.zeros((n, self.noise_steps, len(plant.jitter_inputs))) if plant.jittered else None
         self.push = np.zeros((n, self.noise_steps)) if dist.push_noise else None
         self.sensor = np.zeros((n, spec.n_steps + 1, plant.n_states)) if dist.any_sensor_noise else None
         self._rows = np.arange(n)
@@ -140,7 +140,7 @@ class EpisodeCore:
 
         x = launch
         if np.any(pre_control > 0):
-            x, _ = plant.coast(params, launch, rest, pre_control, pre_normals)
+            x, _ = plant.coast(params, launch, rest, pre_control, pre_normals, np.zeros(k))
         self.step_index[index] = 0
         self.finished[index] = False
         if self.delayed:
@@ -166,7 +166,10 @@ class EpisodeCore:
         """One plant step of environments ``index`` with the per-step noise of column ``noise_column``."""
         if self.jitter is not None:
             u = u.copy()
-            u[:, list(self.spec.plant.jitter_inputs)] += self.spec.disturbances.beam_jitter_m * self.jitter[index, noise_column]
+            lag = self.lag0[index] if self.delayed else 0
+            middle = self.spec.config.control_start_s + (noise_column - lag + 0.5) * self.spec.dt
+            std = self.spec.plant.jitter_std(params, middle * np.ones(len(index)))
+            u[:, list(self.spec.plant.jitter_inputs)] += std * self.jitter[index, noise_column]
         push = None if self.push is None else self.spec.disturbances.push_noise * self.push[index, noise_column]
         return self.spec.plant.step(params, x, u, push)
 
@@ -247,12 +250,12 @@ class EpisodeCore:
         remaining = np.maximum(self.cutoff_s[index] - (spec.config.control_start_s + step * spec.dt), 0.0)
         normals = None
         if plant.noisy:
-            # Each environment draws its own number of pieces (padded for the batch): as alone.
-            pieces = np.broadcast_to(plant.coast_pieces(params, remaining), remaining.shape)
+            # Each environment draws its own pieces' normals: a batch plays the single episodes.
+            pieces = plant.coast_pieces(params, remaining)
             normals = np.zeros((len(index), int(pieces.max()), plant.n_states))
-            for row, i in enumerate(index):
-                normals[row, :pieces[row]] = self.rngs[i].standard_normal((pieces[row], plant.n_states))
-        final, diverged = plant.coast(params, x, held, remaining, normals)
+            for row, (i, count) in enumerate(zip(index, pieces)):
+                normals[row, :count] = self.rngs[i].standard_normal((count, plant.n_states))
+        final, diverged = plant.coast(params, x, held, remaining, normals, self.cutoff_s[index] - remaining)
         return final, held, diverged
 
     def observe(self, index: np.ndarray | None = None) -> np.ndarray:

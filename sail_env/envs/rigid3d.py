@@ -20,7 +20,7 @@ DEFAULT_POWER_CONTROL = 0.1
 def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  curvature_radius_m: float = SEED.curvature_radius_m, com_distance_m: float = SEED.com_distance_m,
                  absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
-                 relativistic: bool = False, power_control: bool | float = False,
+                 relativistic: bool = False, ground_jitter_rad: float = 0.0, power_control: bool | float = False,
                  control_start_s: float = SEED.control_start_s, max_beam_offset_m: float = 0.02,
                  max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
                  sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
@@ -30,9 +30,8 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
     ``ValueError`` naming its keyword."""
     if sail_shape not in SHAPES:
         raise ValueError(f"sail_shape must be one of {SHAPES}, got {sail_shape!r}")
-    if relativistic is not False:
-        raise ValueError(f"relativistic must be False: the relativistic push is not implemented in the 3D "
-                         f"environments yet (sail_env.physics.rigid3d.body.axial_rates has the law), got {relativistic!r}")
+    if not isinstance(relativistic, bool):
+        raise ValueError(f"relativistic must be a bool, got {relativistic!r}")
     if isinstance(power_control, bool):
         power_control = DEFAULT_POWER_CONTROL if power_control else 0.0
     elif not (isinstance(power_control, (int, float)) and 0 < power_control <= 0.5):
@@ -43,7 +42,7 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                            com_distance_m=com_distance_m, absorptivity=absorptivity,
                            reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
     flight = RigidFlight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
-                         control_start_s=control_start_s)
+                         relativistic=relativistic, ground_jitter_rad=ground_jitter_rad, control_start_s=control_start_s)
     return EpisodeSpec(flight, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
                        start_half_widths=start_half_widths,
                        disturbances=Disturbances(sensor_noise_std=sensor_noise_std, beam_jitter_m=beam_jitter_m,
@@ -136,7 +135,8 @@ class LightSail3DEnv(LightSailEnv):
     | ``absorptivity`` | 0 | absorbed fraction; the rest is reflected |
     | ``spin_rad_s`` | 0 | spin about the sail axis (couples the tilt axes) |
     | ``power_control`` | False | True (±10 %) or a relative power: a fifth action |
-    | ``relativistic`` | False | must be False for now (see below) |
+    | ``relativistic`` | False | relativistic push with the Doppler factor (see below) |
+    | ``ground_jitter_rad`` | 0 | σ of the ground pointing angle per step: the spot moves by ``D(t)·δ`` on both axes |
     | ``control_start_s`` | 0 | flight time at which control starts |
     | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 |
     | ``start_half_widths`` | see above | 8 half-widths in state order |
@@ -144,9 +144,11 @@ class LightSail3DEnv(LightSailEnv):
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power |
 
     ``info["state"]`` holds the true state in SI by name and ``info["t"]`` the flight
-    time; the control step is ``env.unwrapped.dt``. The relativistic push (and with it a
-    push and stiffnesses that fall along the flight) is not in these environments yet:
-    ``relativistic=True`` raises.
+    time; the control step is ``env.unwrapped.dt``. With ``relativistic=True`` the axial flight
+    follows ``d(γβ)/dt ∝ (1−β)/(1+β)`` (docs/physics.md §14): every radiation term, push and
+    stiffnesses, falls by that power factor along the flight (to 0.73 at the realistic task's
+    600 s cut-off), the window holds the factor at its middle, the coast holds it piecewise
+    over pieces of at most 5 s, and ``Vz`` in the pointing comes from the same law.
     """
 
     metadata = {"render_modes": [], "render_fps": 30}

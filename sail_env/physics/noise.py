@@ -63,12 +63,13 @@ class WhiteNoise:
 
 def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
                      push: tuple[np.ndarray, np.ndarray] | None = None,
-                     jitter_inputs: tuple[int, ...] = (0,)) -> np.ndarray:
+                     jitter_inputs: tuple[int, ...] = (0,), jitter_psd: np.ndarray | None = None) -> np.ndarray:
     """The ``(n+1)² × (n+1)²`` matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``),
     batched over the leading axes of ``a`` (..., n, n), ``b`` (..., n, m) and ``action`` (..., m).
 
     ``push`` is ``(∂A/∂ln F, ∂B/∂ln F)``, by default the planar model's; the beam jitter acts,
-    independently and with the same PSD, on each input column in ``jitter_inputs``.
+    independently and with the same PSD, on each input column in ``jitter_inputs``; ``jitter_psd``
+    (batched like ``a``'s leading axes) replaces ``noise``'s beam-jitter PSD.
     """
     a_push, b_push = push_sensitivity(a, b) if push is None else push
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
@@ -83,8 +84,9 @@ def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Wh
     eye = np.eye(n + 1)
     gen = (_kron(drift, eye) + _kron(eye, drift)) + noise.push_psd_s * _kron(mult, mult)
     jitter = np.zeros((*batch, n + 1, n + 1))
+    psd = noise.beam_jitter_psd_m2s if jitter_psd is None else np.asarray(jitter_psd)[..., None, None]
     for column in jitter_inputs:
-        jitter[..., :n, :n] += noise.beam_jitter_psd_m2s * b[..., :, None, column] * b[..., None, :, column]
+        jitter[..., :n, :n] += psd * b[..., :, None, column] * b[..., None, :, column]
     gen[..., :, -1] += jitter.reshape(*batch, (n + 1) ** 2)
     return gen
 

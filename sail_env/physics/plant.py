@@ -164,41 +164,73 @@ class LinearPlant:
         """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
         return np.maximum(1, np.ceil(duration * p.growth / GROWTH_PER_PIECE).astype(np.int64))
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
-        """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held (:mod:`sail_env.physics.noise`)."""
+    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held at flight time ``t`` (k,)
+        (:mod:`sail_env.physics.noise`)."""
         raise NotImplementedError
 
+    @property
+    def jittered(self) -> bool:
+        """Whether the beam's landing offset jitters during the window."""
+        return bool(self.beam_jitter_m)
+
+    def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
+        """Standard deviation [m] of the beam's landing offset during a step at flight time ``t``
+        (k,): a float, or (k, 1)."""
+        return self.beam_jitter_m
+
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
-              normals: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """Propagate ``duration`` (k,) seconds with ``u`` held and the disturbances as white noise.
+              normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Propagate ``duration`` (k,) seconds from flight time ``start_s`` (k,) with ``u`` held and
+        the disturbances as white noise.
 
         Without noise the step is exact. With it, the first two moments are exact
         (:mod:`sail_env.physics.noise`) and the end state is drawn from that Gaussian with
         ``normals`` (k, pieces, n). An unstable sail is propagated in
-        :meth:`coast_pieces` pieces and checked after each; returns ``(x, diverged)``.
+        :meth:`coast_pieces` pieces and checked after each; a plant whose model changes along
+        the flight (:meth:`_coast_params`) holds each piece's model at the piece's middle.
+        Returns ``(x, diverged)``.
         """
         n = self.n_states
         pieces = self.coast_pieces(p, duration)
         piece = duration / pieces
         diverged = np.zeros(len(x), dtype=bool)
-        if self.noisy:
-            generator = self._moment_generator(p, u) * piece[:, None, None]
-            propagator = scipy.linalg.expm(generator)
-        elif p.shared and np.all(piece == piece[0]):
-            phi, gamma = self.nominal.discretize(float(piece[0]))
-        else:
-            phi, gamma = zoh_discretize(p.a, p.b, piece)
+        propagator = None
         for i in range(int(pieces.max())):
+            if propagator is None or self.time_varying:
+                propagator = self._piece_propagator(p, u, start_s + (i + 0.5) * piece, piece)
             if self.noisy:
                 start = second_moment(x, np.zeros((len(x), n, n)))
                 mean, cov = mean_and_covariance(np.einsum("kij,kj->ki", propagator, start))
                 moved = sample_gaussian(mean, cov, normals[:, i])
             else:
-                moved = np.einsum("...ij,...j->...i", phi, x) + np.einsum("...ij,...j->...i", gamma, u)
+                phi, drive = propagator
+                moved = np.einsum("...ij,...j->...i", phi, x) + drive
             active = (i < pieces) & ~diverged
             x = np.where(active[:, None], moved, x)
             diverged |= active & self.diverged(p, x)
         return x, diverged
+
+    #: Whether :meth:`_coast_params` depends on the time (then each piece has its own model).
+    time_varying = False
+
+    def _coast_params(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> PlantParams:
+        """The model at flight time ``t`` (k,) with ``u`` held (the same at every time unless
+        :attr:`time_varying`)."""
+        return p
+
+    def _piece_propagator(self, p: PlantParams, u: np.ndarray, middle: np.ndarray,
+                          piece: np.ndarray) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """One piece's propagator, with the model held at its ``middle`` (the midpoint rule: second
+        order in the piece's length): of the second moments with noise, else ``(Φ, Γu)``."""
+        q = self._coast_params(p, u, middle)
+        if self.noisy:
+            return scipy.linalg.expm(self._moment_generator(q, u, middle) * piece[:, None, None])
+        if q.shared and np.all(piece == piece[0]):
+            phi, gamma = self.nominal.discretize(float(piece[0]))
+        else:
+            phi, gamma = zoh_discretize(q.a, q.b, piece)
+        return phi, np.einsum("...ij,...j->...i", gamma, u)
 
 
 class PlanarPlant(LinearPlant):
@@ -296,7 +328,7 @@ class PlanarPlant(LinearPlant):
         """Flight direction ``|Vx| / Vz`` [rad] if the beam is cut at ``t``."""
         return np.abs(x[:, VX]) / self.speed(p, t)
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
+    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         return moment_generator(p.a, p.b, u, self.white_noise)
 
     def rate_scale(self) -> float:

@@ -33,12 +33,17 @@ from sail_env.physics.plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
+from sail_env.physics.rigid3d.flight import Flight, fly
 from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, linearise
 
 #: The factors a parameter spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("mass", "inertia", "beam_power")
 #: Order of the push expansion with a power command (its error is the next term).
 POWER_EXPANSION_ORDER = 4
+#: Longest piece of a relativistic coast [s]: each piece holds the power factor at its middle.
+#: Over the realistic task's 589 s coast the lateral velocity at cut-off is then within 0.8 % of
+#: an integration of the time-varying linear model (2 s: 0.15 %, 10 s: 2.7 %; docs/physics.md §14).
+COAST_SEGMENT_S = 5.0
 X, Y, VX, VY, THETA_X, THETA_Y = range(6)
 
 
@@ -51,6 +56,11 @@ class RigidFlight:
         spin_rad_s: Spin about the sail axis [rad/s]; it couples the tilt axes (gyroscopic).
         power_control: Relative beam power change at action ±1 of a fifth input (0: no
             power input).
+        relativistic: The axial flight follows the relativistic law with the Doppler factor
+            (:func:`~sail_env.physics.rigid3d.flight.fly`): the push and every radiation term fall
+            along the flight by the power factor ``(1−β)/(1+β)``.
+        ground_jitter_rad: Standard deviation of the ground station's pointing angle per control
+            step: the spot moves by ``D(t)·δ`` at the sail on both axes (docs/physics.md §12).
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
             :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
     """
@@ -58,6 +68,8 @@ class RigidFlight:
     sail: RigidSailConfig = RigidSailConfig()
     spin_rad_s: float = 0.0
     power_control: float = 0.0
+    relativistic: bool = False
+    ground_jitter_rad: float = 0.0
     beam_cutoff_s: float = SEED.beam_cutoff_s
     control_step_s: float = SEED.control_step_s
     control_window_s: float = SEED.control_window_s
@@ -66,13 +78,19 @@ class RigidFlight:
     def __post_init__(self) -> None:
         if not isinstance(self.sail, RigidSailConfig):
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
+        if not isinstance(self.relativistic, bool):
+            raise ValueError(f"relativistic must be a bool, got {self.relativistic!r}")
         for field in dataclasses.fields(self)[1:]:
+            if field.name == "relativistic":
+                continue
             value = getattr(self, field.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"{field.name} must be a finite real number, got {value!r}")
         for name in ("beam_cutoff_s", "control_step_s", "control_window_s"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.ground_jitter_rad < 0:
+            raise ValueError(f"ground_jitter_rad must be >= 0, got {self.ground_jitter_rad}")
         if not 0 <= self.power_control <= 0.5:
             raise ValueError(f"power_control must be in [0, 0.5], got {self.power_control}")
         if self.control_start_s < 0:
@@ -83,6 +101,11 @@ class RigidFlight:
         if self.control_start_s + self.control_window_s > self.beam_cutoff_s:
             raise ValueError(f"control_start_s + control_window_s must be <= beam_cutoff_s ({self.beam_cutoff_s} s), "
                              f"got {self.control_start_s + self.control_window_s}")
+
+    @property
+    def window_middle_s(self) -> float:
+        """Flight time of the control window's middle: where the window's model is taken."""
+        return self.control_start_s + 0.5 * self.control_window_s
 
     @property
     def control_steps(self) -> int:
@@ -124,8 +147,20 @@ class RigidPlant(LinearPlant):
         self.radiation_b = b
         self.nominal_acceleration = lin.push_n / lin.mass_kg
         self.fixed_state = {"spin": flight.spin_rad_s}  # a launch state may name it, not change it
-        super().__init__(LinearModel(lin.A.copy(), b, (self.radiation, b)), flight.control_step_s, parameter_spread, beam_jitter_m,
-                         push_noise)
+        self.flight: Flight | None = None
+        self.ground_jitter_rad = flight.ground_jitter_rad
+        self.time_varying = flight.relativistic or flight.ground_jitter_rad > 0
+        if self.time_varying:
+            # Without diffraction the flight of a sail with r times the nominal F/m is the nominal
+            # one at r t (d(γβ)/dt = r F₀ f(β) / (m₀ c)): one integration serves every draw.
+            fastest = (1 + parameter_spread) / (1 - parameter_spread)
+            self.flight = fly(self.sail, 2.0 * flight.beam_cutoff_s * fastest, relativistic=flight.relativistic)
+        window = self.power_factor(np.ones(1), np.full(1, flight.window_middle_s))[0]
+        nominal_a = self.kinematics + window * self.radiation if flight.relativistic else lin.A.copy()
+        nominal_b = window * b
+        super().__init__(LinearModel(nominal_a, nominal_b, (window * self.radiation, nominal_b)),
+                         flight.control_step_s, parameter_spread, beam_jitter_m, push_noise)
+        self.noisy = self.noisy or self.ground_jitter_rad > 0
 
     @property
     def power_control(self) -> bool:
@@ -149,6 +184,8 @@ class RigidPlant(LinearPlant):
         rows = np.ones((len(factors), 8))
         rows[:, [RATES[0], RATES[1]]] = (power / mass)[:, None]
         rows[:, [RATES[2], RATES[3]]] = (power / inertia)[:, None]
+        # The window holds the power factor at its middle (it changes by < 1e-3 within it).
+        rows *= self.power_factor(power / mass, np.full(len(factors), self.config.window_middle_s))[:, None]
         a_rad = rows[:, :, None] * self.radiation
         return self.kinematics + a_rad, rows[:, :, None] * self.radiation_b, a_rad
 
@@ -195,27 +232,73 @@ class RigidPlant(LinearPlant):
         tilt = np.hypot(x[:, THETA_X], x[:, THETA_Y])
         return ~((offset <= p.limits[:, 0]) & (tilt <= p.limits[:, 1]))
 
+    def power_factor(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The Doppler power factor at flight time ``t`` of sails with ``ratio`` times the nominal
+        axial acceleration (one without the relativistic law)."""
+        if self.flight is None:
+            return np.ones(len(ratio))
+        return self.flight.power_factor(self._flight_time(ratio, t))
+
+    def _flight_time(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
+        scaled = ratio * t
+        if np.any(scaled > self.flight.duration_s):
+            raise ValueError(f"flight time {float(np.max(t))} s is beyond the integrated flight "
+                             f"({self.flight.duration_s} s at the nominal push)")
+        return scaled
+
     def speed(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
-        """Axial speed ``Vz = a t`` [m/s] at the centred sail's push (Newtonian)."""
-        return p.acceleration * t
+        """Axial speed ``Vz`` [m/s] of the centred sail: ``a t`` (Newtonian) or the relativistic law
+        with the Doppler factor (:mod:`sail_env.physics.relativity`)."""
+        if self.flight is None or not self.flight.relativistic:
+            return p.acceleration * t
+        return self.flight.speed(self._flight_time(p.acceleration / self.nominal_acceleration, t))
 
     def pointing(self, p: PlantParams, x: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Flight direction ``|V⊥| / Vz`` [rad] over both axes if the beam is cut at ``t``."""
         return np.hypot(x[:, VX], x[:, VY]) / self.speed(p, t)
 
-    def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
-              normals: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`LinearPlant.coast`, with a held power command folded into ``A`` and ``B``."""
-        if self.power_control and np.any(u[:, 4] != 0):
-            scale = 1.0 + u[:, 4]
-            a_rad = p.a - self.kinematics
-            p = dataclasses.replace(p, a=self.kinematics + scale[:, None, None] * a_rad,
-                                    b=scale[:, None, None] * p.b, shared=False)
-        return super().coast(p, x, u, duration, normals)
+    def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
+        """:meth:`LinearPlant.coast_pieces`, and with the relativistic push pieces of at most
+        :data:`COAST_SEGMENT_S`."""
+        pieces = super().coast_pieces(p, duration)
+        if self.flight is None:
+            return pieces
+        return np.maximum(pieces, np.ceil(duration / COAST_SEGMENT_S).astype(np.int64))
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray) -> np.ndarray:
+    def _coast_params(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> PlantParams:
+        """The window's model with the held power command and, relativistically, the power factor
+        at ``t`` (relative to the window's) folded into every radiation term:
+        ``A = K + s A_rad``, ``B = s B`` (docs/physics.md §14)."""
+        scale = np.ones(len(u))
+        if self.power_control:
+            scale = scale * (1.0 + u[:, 4])
+        if self.flight is not None:
+            ratio = p.acceleration / self.nominal_acceleration * np.ones(len(u))
+            scale = scale * (self.power_factor(ratio, t)
+                             / self.power_factor(ratio, np.full(len(u), self.config.window_middle_s)))
+        if np.all(scale == 1.0):
+            return p
         a_rad = p.a - self.kinematics
-        return moment_generator(p.a, p.b, u, self.white_noise, (a_rad, p.b), self.jitter_inputs)
+        return dataclasses.replace(p, a=self.kinematics + scale[:, None, None] * a_rad,
+                                   b=scale[:, None, None] * p.b, shared=False)
+
+    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
+        a_rad = p.a - self.kinematics
+        psd = None if not self.ground_jitter_rad else self.jitter_std(p, t)[:, 0] ** 2 * self.dt
+        return moment_generator(p.a, p.b, u, self.white_noise, (a_rad, p.b), self.jitter_inputs, psd)
+
+    @property
+    def jittered(self) -> bool:
+        return bool(self.beam_jitter_m or self.ground_jitter_rad)
+
+    def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
+        """The landing jitter and the ground jitter ``D(t)·δ`` (independent; ``D`` of the draw's flight)."""
+        if not self.ground_jitter_rad:
+            return self.beam_jitter_m
+        ratio = p.acceleration / self.nominal_acceleration
+        # β_r(t) = β(r t), so D_r(t) = ∫ β(r s) c ds = D(r t) / r.
+        distance = self.flight.distance(self._flight_time(ratio, t)) / ratio
+        return np.hypot(self.beam_jitter_m, distance * self.ground_jitter_rad)[:, None]
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""
