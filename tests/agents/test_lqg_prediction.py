@@ -4,6 +4,7 @@ sail then has, so each command is the LQR law on that future true state."""
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 import sail_env  # noqa: F401
 from agents import LQGAgent
@@ -30,3 +31,33 @@ def test_lqg_commands_act_on_the_state_at_their_arrival():
     expected = np.clip(-states[arrivals[reachable]] @ agent.gain.T, -spec.action_scale, spec.action_scale)
     assert np.abs(expected).max() > 0.1 * spec.action_scale.max()  # the commands are not trivially zero
     np.testing.assert_allclose(commands[reachable], expected, rtol=0, atol=1e-6 * np.abs(expected).max())
+
+
+def _steady_kalman_gain(phi, process, sensor, tol=1e-13, max_iter=2_000_000):
+    """Gain of the filter ``x̂ += K (y − x̂)`` (the full state measured), from the covariance
+    recursion ``P ← Φ (P − P (P + V)⁻¹ P) Φᵀ + W`` run to its fixed point."""
+    p = process.copy()
+    for _ in range(max_iter):
+        gain = p @ np.linalg.inv(p + sensor)
+        nxt = phi @ (p - gain @ p) @ phi.T + process
+        if np.max(np.abs(nxt - p)) <= tol * np.max(np.abs(nxt)):
+            return nxt @ np.linalg.inv(nxt + sensor)
+        p = nxt
+    raise AssertionError("covariance recursion did not converge")
+
+
+@pytest.mark.parametrize("env_id, kwargs", [("LightSailRealistic-v0", {}),
+                                            ("LightSailDeepDish-v0", {"beam_jitter_m": 1e-4, "push_noise": 0.02})])
+def test_kalman_gain_is_the_covariance_recursion_fixed_point(env_id, kwargs):
+    """Process noise per step: the beam jitter through Γ's offset column, the push noise through
+    ``∂A/∂ln F`` over one step at the state scale, and a model-mismatch floor of 3e-3 state scales;
+    sensor noise: the task's, floored at 1e-6 state scales (agents/lqg.py's docstring)."""
+    spec = gym.make(env_id, **kwargs).unwrapped.episode_spec
+    dist, scale = spec.disturbances, spec.state_scale
+    phi, gamma = spec.nominal.discretize(spec.dt)
+    kick = spec.nominal.push_sensitivity[0] @ scale * spec.dt
+    process = (dist.beam_jitter_m**2 * np.outer(gamma[:, 0], gamma[:, 0]) + dist.push_noise**2 * np.outer(kick, kick)
+               + np.diag((3e-3 * scale) ** 2))
+    sensor = np.diag(np.maximum(np.array(dist.sensor_noise_std), 1e-6 * scale) ** 2)
+    reference = _steady_kalman_gain(phi, process, sensor)
+    np.testing.assert_allclose(LQGAgent(spec).kalman_gain, reference, rtol=1e-6, atol=1e-9)

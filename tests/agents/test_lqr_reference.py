@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401
-from agents import LQRAgent, lqr_gain
+from agents import LQGAgent, LQRAgent, lqr_gain
 from sail_env.physics.linear import LinearModel
 
 
@@ -22,20 +22,21 @@ def _value_iteration_gain(phi, gamma, q, r, tol=1e-13, max_iter=2_000_000):
     raise AssertionError("value iteration did not converge")
 
 
-@pytest.mark.parametrize("input_weight", [1.0, 10.0])
-def test_lqr_agent_gain_is_the_value_iteration_fixed_point(input_weight):
+@pytest.mark.parametrize("agent_cls, input_weight", [(LQRAgent, 1.0), (LQGAgent, 10.0)])
+def test_agent_gain_is_the_value_iteration_fixed_point(agent_cls, input_weight):
     """Weights (1, 10, 1, 1) on (X, Vx, θ, ω) and 1 on each input, in units of the observation and
-    action scales (agents.lqr.STATE_WEIGHTS), times ``input_weight`` on the inputs."""
+    action scales (agents.lqr.STATE_WEIGHTS), times the agent's default input weight (LQR 1,
+    LQG 10: README "The task suite")."""
     spec = gym.make("LightSailDeepDish-v0").unwrapped.episode_spec
     assert spec.nominal.is_controllable
     phi, gamma = spec.nominal.discretize(spec.dt)
     q = np.diag(np.array([1.0, 10.0, 1.0, 1.0]) / spec.state_scale**2)
     r = input_weight * np.diag(1.0 / spec.action_scale**2)
     reference = _value_iteration_gain(phi, gamma, q, r)
-    agent = LQRAgent(spec) if input_weight == 1.0 else LQRAgent(spec, input_weight)
+    agent = agent_cls(spec)
     np.testing.assert_allclose(agent.gain, reference, rtol=1e-6, atol=1e-9 * np.abs(reference).max())
     # The same weights are lqr_gain's defaults.
-    if input_weight == 1.0:
+    if agent_cls is LQRAgent:
         default = lqr_gain(spec.nominal, spec.dt, spec.state_scale, spec.action_scale)
         np.testing.assert_allclose(default, reference, rtol=1e-6, atol=1e-9 * np.abs(reference).max())
 
