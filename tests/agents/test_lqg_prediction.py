@@ -11,11 +11,14 @@ from agents import LQGAgent
 from sail_env.physics import DEEP_DISH
 
 
-def test_lqg_commands_act_on_the_state_at_their_arrival():
+@pytest.mark.parametrize("start", [None, {"x": 0.2}])
+def test_lqg_commands_act_on_the_state_at_their_arrival(start):
+    """Also when the first commands saturate (a start 0.2 m off the beam): the filter predicts with
+    the inputs the beam can give."""
     env = gym.make("LightSail-v0", config=DEEP_DISH.replace(control_start_s=10.0), light_delay=True)
     spec = env.unwrapped.episode_spec
     agent = LQGAgent(spec)
-    obs, info = env.reset(seed=3)
+    obs, info = env.reset(seed=3, options=None if start is None else {"initial_state": start})
     states, commands = [list(info["state"].values())], []
     for step in range(spec.n_steps):
         action = agent.act(obs)
@@ -30,6 +33,8 @@ def test_lqg_commands_act_on_the_state_at_their_arrival():
     reachable = arrivals < len(states)
     expected = np.clip(-states[arrivals[reachable]] @ agent.gain.T, -spec.action_scale, spec.action_scale)
     assert np.abs(expected).max() > 0.1 * spec.action_scale.max()  # the commands are not trivially zero
+    if start is not None:
+        assert np.any(np.abs(expected) == spec.action_scale)
     np.testing.assert_allclose(commands[reachable], expected, rtol=0, atol=1e-6 * np.abs(expected).max())
 
 
