@@ -10,6 +10,7 @@ import pytest
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.core.spec import MAX_PUSH_NOISE, Disturbances
 from sail_env.envs import LightSailEnv
+from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
 from sail_env.physics.config import MAX_CONTROL_STEPS
 from sail_env.physics.constants import SPEED_OF_LIGHT
@@ -231,6 +232,14 @@ def test_vector_initial_state_array_must_be_real():
     with pytest.raises(ValueError, match=r"finite real array of shape \(2, 4\)"):
         envs.reset(options={"initial_state": np.full((2, 4), "0.001")})
     envs.reset(options={"initial_state": np.zeros((2, 4), dtype=np.float32)})
+
+
+def test_vector_env_from_a_spec_is_one_env_by_default_and_does_not_render():
+    spec = gym.make("LightSail-v0").unwrapped.episode_spec
+    envs = LightSailVectorEnv.from_spec(spec)
+    assert envs.num_envs == 1 and envs.observation_space.shape == (1, spec.observation_size)
+    with pytest.raises(ValueError, match="LightSailVectorEnv does not render; render_mode must be None"):
+        LightSailVectorEnv.from_spec(spec, 2, "rgb_array")
 
 
 @pytest.mark.parametrize("action", [np.zeros((1, 2)), np.array(["0", "0"]), np.array([True, False]), np.zeros(3),
