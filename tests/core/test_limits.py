@@ -234,6 +234,16 @@ def test_vector_initial_state_array_must_be_real():
     envs.reset(options={"initial_state": np.zeros((2, 4), dtype=np.float32)})
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_vector_env_refuses_non_finite_actions_and_a_step_before_reset(bad):
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(RuntimeError, match=r"^step\(\) called before reset\(\)$"):
+        envs.step(np.zeros((2, 2)))
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match="^actions must be finite$"):
+        envs.step(np.array([[0.0, 0.0], [bad, 0.0]]))
+
+
 def test_vector_env_from_a_spec_is_one_env_by_default_and_does_not_render():
     spec = gym.make("LightSail-v0").unwrapped.episode_spec
     envs = LightSailVectorEnv.from_spec(spec)
