@@ -244,6 +244,13 @@ def test_vector_env_refuses_non_finite_actions_and_a_step_before_reset(bad):
         envs.step(np.array([[0.0, 0.0], [bad, 0.0]]))
 
 
+def test_vector_env_builds_no_info_on_a_step_that_ends_nothing():
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    envs.reset(seed=0)
+    _, _, terminated, truncated, info = envs.step(np.zeros((2, 2)))
+    assert not terminated.any() and not truncated.any() and info == {}
+
+
 def test_vector_env_from_a_spec_is_one_env_by_default_and_does_not_render():
     spec = gym.make("LightSail-v0").unwrapped.episode_spec
     envs = LightSailVectorEnv.from_spec(spec)
