@@ -251,6 +251,22 @@ def test_vector_env_builds_no_info_on_a_step_that_ends_nothing():
     assert not terminated.any() and not truncated.any() and info == {}
 
 
+def test_vector_env_final_observation_is_the_single_envs_last_one():
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    envs.reset(seed=5)
+    singles = [gym.make("LightSail-v0") for _ in range(2)]
+    for i, env in enumerate(singles):
+        env.reset(seed=5 + i)
+    while True:
+        obs, _, terminated, _, info = envs.step(np.zeros((2, 2)))
+        last = [env.step(np.zeros(2))[0] for env in singles]
+        if terminated.all():
+            break
+        np.testing.assert_allclose(obs, last, rtol=1e-6)
+    for i in range(2):
+        np.testing.assert_allclose(info["final_obs"][i], last[i], rtol=1e-6)
+
+
 def test_vector_env_from_a_spec_is_one_env_by_default_and_does_not_render():
     spec = gym.make("LightSail-v0").unwrapped.episode_spec
     envs = LightSailVectorEnv.from_spec(spec)
