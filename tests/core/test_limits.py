@@ -251,7 +251,7 @@ def test_vector_env_builds_no_info_on_a_step_that_ends_nothing():
     assert not terminated.any() and not truncated.any() and info == {}
 
 
-def test_vector_env_final_observation_is_the_single_envs_last_one():
+def test_vector_env_final_observation_and_score_are_the_single_envs():
     envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
     envs.reset(seed=5)
     singles = [gym.make("LightSail-v0") for _ in range(2)]
@@ -259,12 +259,16 @@ def test_vector_env_final_observation_is_the_single_envs_last_one():
         env.reset(seed=5 + i)
     while True:
         obs, _, terminated, _, info = envs.step(np.zeros((2, 2)))
-        last = [env.step(np.zeros(2))[0] for env in singles]
+        last = [env.step(np.zeros(2)) for env in singles]
         if terminated.all():
             break
-        np.testing.assert_allclose(obs, last, rtol=1e-6)
-    for i in range(2):
-        np.testing.assert_allclose(info["final_obs"][i], last[i], rtol=1e-6)
+        np.testing.assert_allclose(obs, [step[0] for step in last], rtol=1e-6)
+    keys = ("terminal_pointing_rad", "terminal_envelope_rad", "is_success", "diverged", "cutoff_s")
+    for i, (final_obs, *_, single_info) in enumerate(last):
+        np.testing.assert_allclose(info["final_obs"][i], final_obs, rtol=1e-6)
+        for key in keys:
+            np.testing.assert_allclose(info["final_info"][key][i], single_info[key], rtol=1e-6)
+            assert info["final_info"][f"_{key}"][i]
 
 
 def test_vector_env_from_a_spec_is_one_env_by_default_and_does_not_render():
