@@ -10,6 +10,7 @@ import pytest
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.core.spec import MAX_PUSH_NOISE, Disturbances
 from sail_env.envs import LightSailEnv
+from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
 from sail_env.physics.config import MAX_CONTROL_STEPS
 from sail_env.physics.constants import SPEED_OF_LIGHT
@@ -231,6 +232,51 @@ def test_vector_initial_state_array_must_be_real():
     with pytest.raises(ValueError, match=r"finite real array of shape \(2, 4\)"):
         envs.reset(options={"initial_state": np.full((2, 4), "0.001")})
     envs.reset(options={"initial_state": np.zeros((2, 4), dtype=np.float32)})
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_vector_env_refuses_non_finite_actions_and_a_step_before_reset(bad):
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(RuntimeError, match=r"^step\(\) called before reset\(\)$"):
+        envs.step(np.zeros((2, 2)))
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match="^actions must be finite$"):
+        envs.step(np.array([[0.0, 0.0], [bad, 0.0]]))
+
+
+def test_vector_env_builds_no_info_on_a_step_that_ends_nothing():
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    envs.reset(seed=0)
+    _, _, terminated, truncated, info = envs.step(np.zeros((2, 2)))
+    assert not terminated.any() and not truncated.any() and info == {}
+
+
+def test_vector_env_final_observation_and_score_are_the_single_envs():
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    envs.reset(seed=5)
+    singles = [gym.make("LightSail-v0") for _ in range(2)]
+    for i, env in enumerate(singles):
+        env.reset(seed=5 + i)
+    while True:
+        obs, _, terminated, _, info = envs.step(np.zeros((2, 2)))
+        last = [env.step(np.zeros(2)) for env in singles]
+        if terminated.all():
+            break
+        np.testing.assert_allclose(obs, [step[0] for step in last], rtol=1e-6)
+    keys = ("terminal_pointing_rad", "terminal_envelope_rad", "is_success", "diverged", "cutoff_s")
+    for i, (final_obs, *_, single_info) in enumerate(last):
+        np.testing.assert_allclose(info["final_obs"][i], final_obs, rtol=1e-6)
+        for key in keys:
+            np.testing.assert_allclose(info["final_info"][key][i], single_info[key], rtol=1e-6)
+            assert info["final_info"][f"_{key}"][i]
+
+
+def test_vector_env_from_a_spec_is_one_env_by_default_and_does_not_render():
+    spec = gym.make("LightSail-v0").unwrapped.episode_spec
+    envs = LightSailVectorEnv.from_spec(spec)
+    assert envs.num_envs == 1 and envs.observation_space.shape == (1, spec.observation_size)
+    with pytest.raises(ValueError, match="LightSailVectorEnv does not render; render_mode must be None"):
+        LightSailVectorEnv.from_spec(spec, 2, "rgb_array")
 
 
 @pytest.mark.parametrize("action", [np.zeros((1, 2)), np.array(["0", "0"]), np.array([True, False]), np.zeros(3),
