@@ -169,8 +169,8 @@ class EpisodeCore:
             lag = self.lag0[index] if self.delayed else 0
             middle = self.spec.config.control_start_s + (noise_column - lag + 0.5) * self.spec.dt
             std = self.spec.plant.jitter_std(params, middle * np.ones(len(index)))
-            u[:, list(self.spec.plant.jitter_inputs)] += std * self.jitter[index, noise_column]
-        push = None if self.push is None else self.spec.disturbances.push_noise * self.push[index, noise_column]
+            u[:, list(self.spec.plant.jitter_inputs)] += std * take(self.jitter, index, noise_column)
+        push = None if self.push is None else self.spec.disturbances.push_noise * take(self.push, index, noise_column)
         return self.spec.plant.step(params, x, u, push)
 
     def _applied(self, index: np.ndarray, step: np.ndarray, newest: np.ndarray | int) -> np.ndarray:
