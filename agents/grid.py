@@ -4,6 +4,7 @@ Optuna trial in a relational database, taken by whichever worker asks next.
     python -m agents.grid run                 # a worker: takes cells until none is left
     python -m agents.grid status              # done, running (where), failed, what remains
     python -m agents.grid render --readme README.md   # the README's table from the database
+    python -m agents.grid redo --agents lqg   # queue cells again after their code changed
 
 The default storage is a SQLite file, ``runs/grid.db``: nothing to set up. With
 ``--storage postgresql://user:password@host/db`` the same commands run one grid from any
@@ -149,10 +150,25 @@ def create_grid(storage: RDBStorage, study_name: str, cells: list[Cell], setting
                              f"not {settings}: use another --study")
         return study
     for cell in cells:
-        study.enqueue_trial({"env": cell.env, "agent": cell.agent, "hyperparameters": cell.hyperparameters,
-                             "seed": cell.seed}, user_attrs={"cell": cell.name})
+        enqueue(study, cell)
     study.set_user_attr("settings", settings)
     return study
+
+
+def enqueue(study: optuna.Study, cell: Cell) -> None:
+    study.enqueue_trial({"env": cell.env, "agent": cell.agent, "hyperparameters": cell.hyperparameters,
+                         "seed": cell.seed}, user_attrs={"cell": cell.name})
+
+
+def redo(study: optuna.Study, agents: list[str], envs: list[str]) -> list[Cell]:
+    """Queue the finished (or failed) cells of ``agents`` on ``envs`` again, e.g. after the agent's
+    code changed. The new trial replaces the old one in ``status`` and the table once it is done;
+    a learner's cell finds its finished run and only plays its episodes again."""
+    cells = [cell for cell, trial in cell_trials(study).items()
+             if cell.agent in agents and cell.env in envs and trial.state in (TrialState.COMPLETE, TrialState.FAIL)]
+    for cell in cells:
+        enqueue(study, cell)
+    return cells
 
 
 def suggest_cell(trial: optuna.Trial, settings: dict[str, Any]) -> Cell:
@@ -389,7 +405,7 @@ def replace_in_readme(readme: Path, table: str) -> None:
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = cli.Parser(prog="python -m agents.grid", description=__doc__.splitlines()[0],
                         formatter_class=cli.HelpFormatter)
-    parser.add_argument("command", choices=("run", "status", "render"))
+    parser.add_argument("command", choices=("run", "status", "render", "redo"))
     parser.add_argument("--storage", default=DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
     parser.add_argument("--study", default=DEFAULT_STUDY, help="name of the grid in the storage")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/grid"), help="where cells keep their files")
@@ -409,6 +425,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--heartbeat", type=training.positive_int, default=60, help="seconds between heartbeats")
     parser.add_argument("--grace", type=training.positive_int, default=300,
                         help="seconds without a heartbeat after which a cell is taken again")
+    parser.add_argument("--agents", nargs="+", default=[], choices=AGENTS, metavar="AGENT",
+                        help="redo: the agents whose cells to queue again (on --envs)")
     parser.add_argument("--readme", type=Path, help="render: write the table into this README's grid-table markers")
     return parser.parse_args(argv)
 
@@ -436,6 +454,9 @@ def main(argv: list[str] | None = None) -> int:
         return cli.fail(str(err).splitlines()[0])
     if args.command == "status":
         print(status_text(study))
+    elif args.command == "redo":
+        cells = redo(study, args.agents, args.envs)
+        print(f"queued again: {', '.join(c.name for c in cells) or 'nothing'}")
     else:
         table = table_markdown(study)
         if args.readme is not None:

@@ -22,6 +22,8 @@ from sail_env.physics.linear import LinearModel
 STATE_WEIGHTS = (1.0, 10.0, 1.0, 1.0)
 #: The same weights by the unit of a state component (any model's).
 WEIGHT_OF_UNIT = {"m": 1.0, "m/s": 10.0, "rad": 1.0, "rad/s": 1.0}
+#: Weight on each input, relative to its action scale: LQR's and LQG's default.
+INPUT_WEIGHT = 1.0
 
 
 def state_weights(spec: EpisodeSpec) -> np.ndarray:
@@ -30,7 +32,7 @@ def state_weights(spec: EpisodeSpec) -> np.ndarray:
 
 
 def lqr_gain(model: LinearModel, dt: float, state_scale: np.ndarray, input_scale: np.ndarray,
-             input_weight: float = 1.0, weights: np.ndarray | None = None) -> np.ndarray:
+             input_weight: float = INPUT_WEIGHT, weights: np.ndarray | None = None) -> np.ndarray:
     """Gain ``K`` (SI) for ``u = −K x`` minimising ``Σ xᵀQx + uᵀRu`` on the exact discretisation.
 
     ``Q`` and ``R`` are diagonal in units of ``state_scale`` and ``input_scale``; ``weights``
@@ -60,7 +62,7 @@ class LQRAgent:
 
     name = "lqr"
 
-    def __init__(self, spec: EpisodeSpec, input_weight: float = 1.0) -> None:
+    def __init__(self, spec: EpisodeSpec, input_weight: float = INPUT_WEIGHT) -> None:
         self.spec = spec
         self.gain = lqr_gain(spec.nominal, spec.dt, spec.state_scale, spec.action_scale, input_weight,
                              state_weights(spec))

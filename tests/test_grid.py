@@ -67,6 +67,23 @@ def test_sqlite_grid_runs_resumes_and_renders(tmp_path: Path, monkeypatch: pytes
     lqr = next(t for t in trials if t.params["agent"] == "lqr").user_attrs["summary"]
     assert f"| 1/1 | {100 * lqr['success_rate']:.1f} % |" in rows[("lqr", "–")]
 
+    # After an agent's code changed: its cells run again; a learner's only replays its episodes.
+    assert grid.main(["redo", "--envs", "LightSail-v0", "--agents", "lqg", "ppo"]) == 0
+    assert grid.main(["status"]) == 0
+    assert "6 cells, 2 complete, 4 waiting" in capsys.readouterr().out
+    assert grid.main(["run", *argv]) == 0
+    redone = [t for t in load(grid.DEFAULT_STORAGE).get_trials() if t.number >= 6]
+    assert len(redone) == 4 and all(t.state == TrialState.COMPLETE for t in redone)
+    first = {t.user_attrs["cell"]: t for t in trials}
+    for trial in redone:
+        if trial.params["agent"] == "ppo":  # not trained again
+            before = first[trial.user_attrs["cell"]].user_attrs
+            assert (trial.user_attrs["timesteps"], trial.user_attrs["wall_time_s"]) == (before["timesteps"],
+                                                                                      before["wall_time_s"])
+    capsys.readouterr()
+    assert grid.main(["render"]) == 0
+    assert capsys.readouterr().out.strip() == table  # the same code plays the same episodes
+
 
 def test_a_grid_made_with_other_settings_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                     capsys: pytest.CaptureFixture) -> None:

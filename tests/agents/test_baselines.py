@@ -42,6 +42,15 @@ def test_lqg_beats_passive_on_the_realistic_task():
     assert np.all(np.isfinite(lqg_pointing))
 
 
+def test_lqg_holds_the_absorbing_3d_sail_with_light_delay():
+    """10 % absorption makes the 3D seed sail's tilt slowly unstable (passive fails) and light
+    delay makes LQR act on stale states; the LQG's filter and prediction hold it."""
+    kwargs = dict(absorptivity=0.1, light_delay=True, control_start_s=10.0)
+    passive_rate, _ = _play("LightSail3D-v0", PassiveAgent, 20, **kwargs)
+    lqg_rate, _ = _play("LightSail3D-v0", LQGAgent, 20, **kwargs)
+    assert passive_rate <= 0.1 and lqg_rate >= 0.95
+
+
 def test_lqr_gain_stabilises_every_controllable_configuration():
     for config in (SEED, DEEP_DISH, FLAT, SEED.replace(curvature_radius_m=15.0)):
         model = PlanarModel(config)

@@ -22,16 +22,15 @@ def _value_iteration_gain(phi, gamma, q, r, tol=1e-13, max_iter=2_000_000):
     raise AssertionError("value iteration did not converge")
 
 
-@pytest.mark.parametrize("agent_cls, input_weight", [(LQRAgent, 1.0), (LQGAgent, 10.0)])
-def test_agent_gain_is_the_value_iteration_fixed_point(agent_cls, input_weight):
+@pytest.mark.parametrize("agent_cls", [LQRAgent, LQGAgent])
+def test_agent_gain_is_the_value_iteration_fixed_point(agent_cls):
     """Weights (1, 10, 1, 1) on (X, Vx, θ, ω) and 1 on each input, in units of the observation and
-    action scales (agents.lqr.STATE_WEIGHTS), times the agent's default input weight (LQR 1,
-    LQG 10: README "The task suite")."""
+    action scales (agents.lqr.STATE_WEIGHTS and INPUT_WEIGHT): both agents' default."""
     spec = gym.make("LightSailDeepDish-v0").unwrapped.episode_spec
     assert spec.nominal.is_controllable
     phi, gamma = spec.nominal.discretize(spec.dt)
     q = np.diag(np.array([1.0, 10.0, 1.0, 1.0]) / spec.state_scale**2)
-    r = input_weight * np.diag(1.0 / spec.action_scale**2)
+    r = np.diag(1.0 / spec.action_scale**2)
     reference = _value_iteration_gain(phi, gamma, q, r)
     agent = agent_cls(spec)
     np.testing.assert_allclose(agent.gain, reference, rtol=1e-6, atol=1e-9 * np.abs(reference).max())
