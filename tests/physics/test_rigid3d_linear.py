@@ -8,8 +8,8 @@ import scipy.integrate
 import scipy.linalg
 
 from sail_env.physics import DEEP_DISH, FLAT, SEED, PlanarModel
-from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise, state_from_small, tilts
-from sail_env.physics.rigid3d.body import QUATERNION, RATES, rotation_matrices
+from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise, state_from_small
+from sail_env.physics.rigid3d.body import small_state
 
 # Planar (X, θ) is (x, θy) here; rows v̇x, ω̇y and columns x, θy of A, d_x, ψ_x of B.
 X_ROWS, X_COLS, X_INPUTS = [2, 7], [0, 5], [0, 2]
@@ -93,15 +93,6 @@ def test_power_acts_parametrically_through_every_radiation_term():
     np.testing.assert_allclose(boosted.B, 1.1 * base.B, rtol=1e-6, atol=1e-9 * np.abs(base.B).max())
 
 
-def linear_state(state):
-    """(x, y, vx, vy, θx, θy, ωx, ωy) of nonlinear states: tilt rates are ω across the axis."""
-    rotation = rotation_matrices(state[:, QUATERNION])
-    omega = np.einsum("nij,nj->ni", rotation, state[:, RATES])
-    axis = rotation[:, :, 2]
-    across = omega - np.sum(omega * axis, axis=-1, keepdims=True) * axis
-    return np.concatenate([state[:, [0, 1, 3, 4]], tilts(state), across[:, :2]], axis=-1)
-
-
 @pytest.mark.parametrize("spin", [0.0, 300.0])
 def test_linearisation_matches_the_nonlinear_model_for_small_motions(spin):
     config = RigidSailConfig(curvature_radius_m=4.0, absorptivity=0.05, reflectivity=0.95,
@@ -118,10 +109,10 @@ def test_linearisation_matches_the_nonlinear_model_for_small_motions(spin):
         return sail.rates(y[None], inputs)[0]
 
     solution = scipy.integrate.solve_ivp(rhs, (0, duration), start[0], method="DOP853", rtol=1e-9, atol=1e-16)
-    end_nonlinear = linear_state(solution.y[:, -1][None])[0]
+    end_nonlinear = small_state(solution.y[:, -1][None])[0]
     phi, gamma = (scipy.linalg.expm(np.block([[lin.A, lin.B], [np.zeros((4, 12))]]) * duration)[:8, k]
                   for k in (slice(0, 8), slice(8, 12)))
-    end_linear = phi @ linear_state(start)[0] + gamma @ inputs[0]
+    end_linear = phi @ small_state(start)[0] + gamma @ inputs[0]
     scale = np.abs(end_linear).reshape(4, 2).max(axis=1).repeat(2)
     # Second-order terms are ~eps relative; the 3e-3 margin also covers the |offset| push loss.
     np.testing.assert_array_less(np.abs(end_nonlinear - end_linear), 3e-3 * scale)

@@ -76,6 +76,16 @@ def tilts(state: np.ndarray) -> np.ndarray:
     return np.stack([np.arctan2(-axis[..., 1], axis[..., 2]), np.arctan2(axis[..., 0], axis[..., 2])], axis=-1)
 
 
+def small_state(state: np.ndarray) -> np.ndarray:
+    """The linear model's ``(x, y, vx, vy, θx, θy, ωx, ωy)`` (N, 8) of states (N, 13): the
+    inverse of :func:`state_from_small` to first order (tilt rates are ω across the axis, lab)."""
+    rotation = rotation_matrices(state[:, QUATERNION])
+    omega = np.einsum("nij,nj->ni", rotation, state[:, RATES])
+    axis = rotation[:, :, 2]
+    across = omega - np.sum(omega * axis, axis=-1, keepdims=True) * axis
+    return np.concatenate([state[:, [0, 1, 3, 4]], tilts(state), across[:, :2]], axis=-1)
+
+
 class RigidSail:
     """One sail design in its beam: masses, inertia tensor, radiation model, equations of motion."""
 
@@ -108,7 +118,8 @@ class RigidSail:
         out = np.empty_like(state)
         out[:, POSITION] = state[:, VELOCITY]
         out[:, VELOCITY] = force / self.mass
-        out[:, 5] -= self.centred_push(float(power_factor), float(beam_scale)) / self.mass
+        # The wrench is linear in the power: one cached push per beam scale serves any power factor.
+        out[:, 5] -= power_factor * self.centred_push(1.0, float(beam_scale)) / self.mass
         w, v = q[:, :1], q[:, 1:]
         out[:, 6:7] = -0.5 * np.sum(v * omega, axis=-1, keepdims=True)
         out[:, 7:10] = 0.5 * (w * omega + np.cross(v, omega))
