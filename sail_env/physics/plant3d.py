@@ -7,7 +7,10 @@
 :class:`~sail_env.physics.plant.LinearPlant` interface: the exact step, the envelope and the
 coast are the planar plant's code. The surface quadrature runs once per plant; a parameter
 draw scales the mass, the inertia tensor and the beam power, which only rescales rows of the
-radiation wrench's Jacobian (no quadrature per reset).
+radiation wrench's Jacobian (no quadrature per reset). Along the flight the Doppler factor and,
+beyond the diffraction length, the spot's widening change the radiation terms: each draw's flight
+comes from :class:`~sail_env.physics.rigid3d.flight.DrawFlights`, the terms in a widened spot from a
+:class:`~sail_env.physics.rigid3d.scales.ScaleTable` built once (docs/physics.md §14).
 
 A power command ``u₅`` (relative power) scales every radiation term: ``A(u₅) = K + (1 + u₅) A_rad``
 and ``B(u₅) = (1 + u₅) B`` (``A_rad = ∂A/∂ln P``, ``K`` the kinematics and the gyroscopic
