@@ -19,7 +19,7 @@ which env class and vector entry point each family uses).
 from __future__ import annotations
 
 from sail_env.physics.config import DEEP_DISH, SEED
-from sail_env.physics.rigid3d.jitter import GROUND_JITTER_BENCHMARK_RAD
+from sail_env.physics.rigid3d.jitter import GROUND_JITTER_BENCHMARK_RAD, diffraction_length_m
 
 #: The deep dish restores its tilt stiffly, so tilt barely reaches V⊥; a wider lateral
 #: start (±3 cm, ±0.6 m/s) makes the passive sail fail on about half of the episodes.
@@ -49,6 +49,8 @@ RIGID3D_TASKS: dict[str, dict] = {
                                 "spin_rad_s": 1.0, "control_start_s": 10.0, "relativistic": True,
                                 # The ground station's pointing jitter replaces the landing offset's (§12).
                                 "ground_jitter_rad": GROUND_JITTER_BENCHMARK_RAD,
+                                # The spot of a 10 km array widens beyond the L0 of its beam, the aperture's size (§14).
+                                "diffraction_length_m": diffraction_length_m(SEED.aperture_radius_m),
                                 "start_half_widths": tuple(w for w in DEEP_DISH_START_HALF_WIDTHS for _ in range(2)),
                                 **REALISTIC_DISTURBANCES, "beam_jitter_m": 0.0,
                                 "sensor_noise_std": tuple(s for s in REALISTIC_DISTURBANCES["sensor_noise_std"]

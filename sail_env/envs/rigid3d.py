@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from sail_env.core.spec import Disturbances, EpisodeSpec
@@ -20,7 +21,8 @@ DEFAULT_POWER_CONTROL = 0.1
 def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  curvature_radius_m: float = SEED.curvature_radius_m, com_distance_m: float = SEED.com_distance_m,
                  absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
-                 relativistic: bool = False, ground_jitter_rad: float = 0.0, power_control: bool | float = False,
+                 relativistic: bool = False, ground_jitter_rad: float = 0.0, diffraction_length_m: float = math.inf,
+                 power_control: bool | float = False,
                  control_start_s: float = SEED.control_start_s, max_beam_offset_m: float = 0.02,
                  max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
                  sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
@@ -42,7 +44,8 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                            com_distance_m=com_distance_m, absorptivity=absorptivity,
                            reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
     flight = RigidFlight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
-                         relativistic=relativistic, ground_jitter_rad=ground_jitter_rad, control_start_s=control_start_s)
+                         relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
+                         diffraction_length_m=diffraction_length_m, control_start_s=control_start_s)
     return EpisodeSpec(flight, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
                        start_half_widths=start_half_widths,
                        disturbances=Disturbances(sensor_noise_std=sensor_noise_std, beam_jitter_m=beam_jitter_m,
@@ -137,6 +140,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``power_control`` | False | True (±10 %) or a relative power: a fifth action |
     | ``relativistic`` | False | relativistic push with the Doppler factor (see below) |
     | ``ground_jitter_rad`` | 0 | σ of the ground pointing angle per step: the spot moves by ``D(t)·δ`` on both axes |
+    | ``diffraction_length_m`` | inf | ``L0``: beyond it the spot widens as ``D/L0`` and its intensity falls as ``(L0/D)²`` (see below) |
     | ``control_start_s`` | 0 | flight time at which control starts |
     | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 |
     | ``start_half_widths`` | see above | 8 half-widths in state order |
@@ -148,7 +152,11 @@ class LightSail3DEnv(LightSailEnv):
     follows ``d(γβ)/dt ∝ (1−β)/(1+β)`` (docs/physics.md §14): every radiation term, push and
     stiffnesses, falls by that power factor along the flight (to 0.73 at the realistic task's
     600 s cut-off), the window holds the factor at its middle, the coast holds it piecewise
-    over pieces of at most 5 s, and ``Vz`` in the pointing comes from the same law.
+    over pieces of at most 5 s, and ``Vz`` in the pointing comes from the same law. With a finite
+    ``diffraction_length_m`` the spot the sail sees beyond ``L0`` is the beam's profile widened by
+    ``s = D/L0`` with the intensity ``/s²`` (Kulkarni, Lubin & Zhang 2018): the push falls and every
+    stiffness follows the distance, in the window, over the coast, in ``Vz`` and in the ground
+    jitter's ``D(t)`` (docs/physics.md §14).
     """
 
     metadata = {"render_modes": [], "render_fps": 30}

@@ -38,7 +38,7 @@ GROWTH_PER_PIECE = 20.0
 
 @dataclasses.dataclass
 class PlantParams:
-    """Per-environment arrays (leading axis k, or 1 when shared)."""
+    """Per-environment arrays (leading axis k, or 1 when shared); a plant may add fields."""
 
     a: np.ndarray  # (·, n, n) system matrix
     b: np.ndarray  # (·, n, m) input matrix
@@ -53,11 +53,12 @@ class PlantParams:
         """The parameters of environments ``index`` (shared parameters are returned as they are)."""
         if self.shared:
             return self
-        return PlantParams(*(getattr(self, f.name)[index] for f in dataclasses.fields(self)[:-1]), shared=False)
+        return dataclasses.replace(self, shared=False, **{f.name: getattr(self, f.name)[index]
+                                                          for f in dataclasses.fields(self) if f.name != "shared"})
 
     def put(self, index: np.ndarray, other: PlantParams) -> None:
         """Overwrite environments ``index`` with ``other`` (both per-environment)."""
-        for field in dataclasses.fields(self)[:-1]:
+        for field in (f for f in dataclasses.fields(self) if f.name != "shared"):
             mine, theirs = getattr(self, field.name), getattr(other, field.name)
             if mine.shape[1:] != theirs.shape[1:]:  # envelope tables of another length
                 width = max(mine.shape[1], theirs.shape[1])

@@ -7,7 +7,10 @@
 :class:`~sail_env.physics.plant.LinearPlant` interface: the exact step, the envelope and the
 coast are the planar plant's code. The surface quadrature runs once per plant; a parameter
 draw scales the mass, the inertia tensor and the beam power, which only rescales rows of the
-radiation wrench's Jacobian (no quadrature per reset).
+radiation wrench's Jacobian (no quadrature per reset). Along the flight the Doppler factor and,
+beyond the diffraction length, the spot's widening change the radiation terms: each draw's flight
+comes from :class:`~sail_env.physics.rigid3d.flight.DrawFlights`, the terms in a widened spot from a
+:class:`~sail_env.physics.rigid3d.scales.ScaleTable` built once (docs/physics.md §14).
 
 A power command ``u₅`` (relative power) scales every radiation term: ``A(u₅) = K + (1 + u₅) A_rad``
 and ``B(u₅) = (1 + u₅) B`` (``A_rad = ∂A/∂ln P``, ``K`` the kinematics and the gyroscopic
@@ -33,8 +36,9 @@ from sail_env.physics.plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
-from sail_env.physics.rigid3d.flight import Flight, fly
+from sail_env.physics.rigid3d.flight import DrawFlights
 from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, linearise
+from sail_env.physics.rigid3d.scales import ScaleTable
 
 #: The factors a parameter spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("mass", "inertia", "beam_power")
@@ -44,6 +48,8 @@ POWER_EXPANSION_ORDER = 4
 #: Over the realistic task's 589 s coast the lateral velocity at cut-off is then within 0.8 % of
 #: an integration of the time-varying linear model (2 s: 0.15 %, 10 s: 2.7 %; docs/physics.md §14).
 COAST_SEGMENT_S = 5.0
+#: Halvings that locate where a draw's spot starts widening within a coast piece (5 s / 2⁵⁰).
+BISECTIONS = 50
 X, Y, VX, VY, THETA_X, THETA_Y = range(6)
 
 
@@ -61,6 +67,9 @@ class RigidFlight:
             along the flight by the power factor ``(1−β)/(1+β)``.
         ground_jitter_rad: Standard deviation of the ground station's pointing angle per control
             step: the spot moves by ``D(t)·δ`` at the sail on both axes (docs/physics.md §12).
+        diffraction_length_m: ``L0``: beyond it the spot widens as ``D/L0`` with its intensity
+            falling as ``(L0/D)²`` (Kulkarni, Lubin & Zhang 2018), and every radiation term follows
+            (docs/physics.md §7, §14); ``inf`` (default): the spot never widens.
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
             :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
     """
@@ -70,6 +79,7 @@ class RigidFlight:
     power_control: float = 0.0
     relativistic: bool = False
     ground_jitter_rad: float = 0.0
+    diffraction_length_m: float = math.inf
     beam_cutoff_s: float = SEED.beam_cutoff_s
     control_step_s: float = SEED.control_step_s
     control_window_s: float = SEED.control_window_s
@@ -80,8 +90,11 @@ class RigidFlight:
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
         if not isinstance(self.relativistic, bool):
             raise ValueError(f"relativistic must be a bool, got {self.relativistic!r}")
+        length = self.diffraction_length_m
+        if isinstance(length, bool) or not isinstance(length, (int, float)) or not length > 0:
+            raise ValueError(f"diffraction_length_m must be > 0 (inf: no diffraction), got {length!r}")
         for field in dataclasses.fields(self)[1:]:
-            if field.name == "relativistic":
+            if field.name in ("relativistic", "diffraction_length_m"):
                 continue
             value = getattr(self, field.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -111,6 +124,15 @@ class RigidFlight:
     def control_steps(self) -> int:
         """Number of control steps in the window (rounded to whole steps)."""
         return max(1, round(self.control_window_s / self.control_step_s))
+
+
+@dataclasses.dataclass
+class RigidParams(PlantParams):
+    """:class:`PlantParams` and each draw's scaling ``rows`` (·, 8) of the radiation terms' rows
+    (power/mass on ``v̇``, power/inertia on ``ω̇``, no Doppler factor): the model in another spot
+    is ``K + p(t) rows R(s)``."""
+
+    rows: np.ndarray
 
 
 class RigidPlant(LinearPlant):
@@ -147,18 +169,27 @@ class RigidPlant(LinearPlant):
         self.radiation_b = b
         self.nominal_acceleration = lin.push_n / lin.mass_kg
         self.fixed_state = {"spin": flight.spin_rad_s}  # a launch state may name it, not change it
-        self.flight: Flight | None = None
+        self.flights: DrawFlights | None = None
+        self.scales: ScaleTable | None = None
         self.ground_jitter_rad = flight.ground_jitter_rad
-        self.time_varying = flight.relativistic or flight.ground_jitter_rad > 0
+        self.diffracting = math.isfinite(flight.diffraction_length_m)
+        self.time_varying = flight.relativistic or flight.ground_jitter_rad > 0 or self.diffracting
         if self.time_varying:
-            # Without diffraction the flight of a sail with r times the nominal F/m is the nominal
-            # one at r t (d(γβ)/dt = r F₀ f(β) / (m₀ c)): one integration serves every draw.
+            # The flights of every draw's F/m, to twice the cut-off (the latest a cut-off jitter allows).
             fastest = (1 + parameter_spread) / (1 - parameter_spread)
-            self.flight = fly(self.sail, 2.0 * flight.beam_cutoff_s * fastest, relativistic=flight.relativistic)
-        window = self.power_factor(np.ones(1), np.full(1, flight.window_middle_s))[0]
-        nominal_a = self.kinematics + window * self.radiation if flight.relativistic else lin.A.copy()
-        nominal_b = window * b
-        super().__init__(LinearModel(nominal_a, nominal_b, (window * self.radiation, nominal_b)),
+            self.flights = DrawFlights(self.sail, 2.0 * flight.beam_cutoff_s, flight.relativistic,
+                                       flight.diffraction_length_m, fastest)
+            if self.diffracting:
+                # A draw's spot is D̃(r t)/(r L0) (DrawFlights): bounded by the farthest node over the slowest draw.
+                farthest = max(float(f.distance(f.duration_s)) for f in self.flights.flights)
+                self.scales = ScaleTable(self.sail, farthest * fastest / flight.diffraction_length_m)
+        self.flight = None if self.flights is None else self.flights.nominal
+        ones, middle = np.ones(1), np.full(1, flight.window_middle_s)
+        window = self.power_factor(ones, middle)[0]
+        radiation, inputs = (m[0] for m in self._radiation(ones, middle))
+        nominal_a = self.kinematics + window * radiation if flight.relativistic or self.diffracting else lin.A.copy()
+        nominal_b = window * inputs
+        super().__init__(LinearModel(nominal_a, nominal_b, (window * radiation, nominal_b)),
                          flight.control_step_s, parameter_spread, beam_jitter_m, push_noise)
         self.noisy = self.noisy or self.ground_jitter_rad > 0
 
@@ -176,24 +207,42 @@ class RigidPlant(LinearPlant):
         return self.nominal_acceleration * (1 + s) / (1 - s)
 
     # ------------------------------------------------------------------ parameters
-    def _matrices(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(A, B, A_rad)`` (k, ·, ·) for factors (k, 3) of mass, inertia and beam power."""
+    def _radiation(self, ratio: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Radiation part of ``A`` (·, 8, 8) and ``B`` (·, 8, m) at the configured power, no Doppler
+        factor, in the spot that draws with ``ratio`` times the nominal ``F/m`` see at flight time
+        ``t`` (k,): the nominal sail's (1, ·, ·) while no spot has widened."""
+        if self.scales is None:
+            return self.radiation[None], self.radiation_b[None]
+        scale = self.flights.beam_scale(ratio, t)
+        if np.all(scale <= 1.0):
+            return self.radiation[None], self.radiation_b[None]
+        widened, inputs = self.scales.at(scale)
+        b = np.zeros((len(scale),) + self.radiation_b.shape)
+        b[:, :, :4] = inputs
+        near = (scale <= 1.0)[:, None, None]
+        return np.where(near, self.radiation, widened), np.where(near, self.radiation_b, b)
+
+    def _matrices(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(A, B, A_rad, rows)`` (k, ·, ·) for factors (k, 3) of mass, inertia and beam power."""
         mass, inertia, power = factors.T
         # Translational rows scale as power / mass, rotational ones as power / inertia; the
         # gyroscopic coupling I_a Ω / I_t does not change when the whole tensor scales.
         rows = np.ones((len(factors), 8))
         rows[:, [RATES[0], RATES[1]]] = (power / mass)[:, None]
         rows[:, [RATES[2], RATES[3]]] = (power / inertia)[:, None]
-        # The window holds the power factor at its middle (it changes by < 1e-3 within it).
-        rows *= self.power_factor(power / mass, np.full(len(factors), self.config.window_middle_s))[:, None]
-        a_rad = rows[:, :, None] * self.radiation
-        return self.kinematics + a_rad, rows[:, :, None] * self.radiation_b, a_rad
+        # The window holds the power factor and the spot at its middle (the factor changes by < 1e-3 within it).
+        middle = np.full(len(factors), self.config.window_middle_s)
+        window = rows * self.power_factor(power / mass, middle)[:, None]
+        radiation, inputs = self._radiation(power / mass, middle)
+        a_rad = window[:, :, None] * radiation
+        return self.kinematics + a_rad, window[:, :, None] * inputs, a_rad, rows
 
-    def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
+    def _build(self, factors: np.ndarray, shared: bool) -> RigidParams:
         if shared:
-            a, b, a_rad = self.nominal.A[None], self.nominal.B[None], self.radiation[None]
+            a, b, a_rad = self.nominal.A[None], self.nominal.B[None], self.nominal.push_sensitivity[0][None]
+            rows = np.ones((1, 8))
         else:
-            a, b, a_rad = self._matrices(factors)
+            a, b, a_rad, rows = self._matrices(factors)
         n, m = b.shape[-2:]
         if self.power_control or self.push_noise:
             order = POWER_EXPANSION_ORDER if self.power_control else 2
@@ -208,7 +257,7 @@ class RigidPlant(LinearPlant):
         limits = np.tile([c.aperture_radius_m, min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)],
                          (len(a), 1))
         acceleration = self.nominal_acceleration * factors[:, 2] / factors[:, 0]
-        return PlantParams(a, b, step, table, acceleration, limits, growth, shared)
+        return RigidParams(a, b, step, table, acceleration, limits, growth, shared, rows)
 
     # ------------------------------------------------------------------ physics
     def _push(self, u: np.ndarray, push: np.ndarray | None) -> np.ndarray | None:
@@ -235,52 +284,94 @@ class RigidPlant(LinearPlant):
     def power_factor(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The Doppler power factor at flight time ``t`` of sails with ``ratio`` times the nominal
         axial acceleration (one without the relativistic law)."""
-        if self.flight is None:
+        if self.flights is None:
             return np.ones(len(ratio))
-        return self.flight.power_factor(self._flight_time(ratio, t))
-
-    def _flight_time(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
-        scaled = ratio * t
-        if np.any(scaled > self.flight.duration_s):
-            raise ValueError(f"flight time {float(np.max(t))} s is beyond the integrated flight "
-                             f"({self.flight.duration_s} s at the nominal push)")
-        return scaled
+        return self.flights.power_factor(ratio, t)
 
     def speed(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
-        """Axial speed ``Vz`` [m/s] of the centred sail: ``a t`` (Newtonian) or the relativistic law
-        with the Doppler factor (:mod:`sail_env.physics.relativity`)."""
-        if self.flight is None or not self.flight.relativistic:
+        """Axial speed ``Vz`` [m/s] of the centred sail: ``a t`` (Newtonian, fixed spot) or the
+        integrated flight: the relativistic law with the Doppler factor
+        (:mod:`sail_env.physics.relativity`) and the power lost beyond ``L0``."""
+        if self.flights is None or not (self.config.relativistic or self.diffracting):
             return p.acceleration * t
-        return self.flight.speed(self._flight_time(p.acceleration / self.nominal_acceleration, t))
+        return self.flights.speed(p.acceleration / self.nominal_acceleration, t)
 
     def pointing(self, p: PlantParams, x: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Flight direction ``|V⊥| / Vz`` [rad] over both axes if the beam is cut at ``t``."""
         return np.hypot(x[:, VX], x[:, VY]) / self.speed(p, t)
 
     def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
-        """:meth:`LinearPlant.coast_pieces`, and with the relativistic push pieces of at most
-        :data:`COAST_SEGMENT_S`."""
+        """:meth:`LinearPlant.coast_pieces`, and with a model that changes along the flight pieces of
+        at most :data:`COAST_SEGMENT_S`."""
         pieces = super().coast_pieces(p, duration)
-        if self.flight is None:
+        if self.flights is None:
             return pieces
         return np.maximum(pieces, np.ceil(duration / COAST_SEGMENT_S).astype(np.int64))
 
-    def _coast_params(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> PlantParams:
-        """The window's model with the held power command and, relativistically, the power factor
-        at ``t`` (relative to the window's) folded into every radiation term:
-        ``A = K + s A_rad``, ``B = s B`` (docs/physics.md §14)."""
+    def _coast_params(self, p: RigidParams, u: np.ndarray, t: np.ndarray) -> PlantParams:
+        """The window's model with the held power command and the power factor at ``t`` (relative to
+        the window's) folded into every radiation term: ``A = K + s A_rad``, ``B = s B``; where a
+        draw's spot differs from the window's, the radiation terms of that spot
+        (docs/physics.md §14)."""
         scale = np.ones(len(u))
         if self.power_control:
             scale = scale * (1.0 + u[:, 4])
-        if self.flight is not None:
+        if self.flights is not None:
             ratio = p.acceleration / self.nominal_acceleration * np.ones(len(u))
-            scale = scale * (self.power_factor(ratio, t)
-                             / self.power_factor(ratio, np.full(len(u), self.config.window_middle_s)))
+            middle = np.full(len(u), self.config.window_middle_s)
+            if self.scales is not None and np.any(self.flights.beam_scale(ratio, t)
+                                                  != self.flights.beam_scale(ratio, middle)):
+                rows = p.rows * (scale * self.power_factor(ratio, t))[:, None]
+                radiation, inputs = self._radiation(ratio, t)
+                a_rad = rows[:, :, None] * radiation
+                return dataclasses.replace(p, a=self.kinematics + a_rad, b=rows[:, :, None] * inputs, shared=False)
+            scale = scale * (self.power_factor(ratio, t) / self.power_factor(ratio, middle))
         if np.all(scale == 1.0):
             return p
         a_rad = p.a - self.kinematics
         return dataclasses.replace(p, a=self.kinematics + scale[:, None, None] * a_rad,
                                    b=scale[:, None, None] * p.b, shared=False)
+
+    def _piece_propagator(self, p: PlantParams, u: np.ndarray, middle: np.ndarray,
+                          piece: np.ndarray) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """:meth:`LinearPlant._piece_propagator`, split where a draw's spot starts widening or a hard
+        beam edge meets the rim within the piece: the model jumps there, and a piece held at its
+        middle would take the wrong side for up to half its length."""
+        lo, hi = middle - 0.5 * piece, middle + 0.5 * piece
+        cuts = self._kink_times(p, lo, hi)
+        if cuts is None:
+            return super()._piece_propagator(p, u, middle, piece)
+        total = None
+        for start, end in zip([lo, *cuts], [*cuts, hi]):
+            part = super()._piece_propagator(p, u, 0.5 * (start + end), end - start)
+            if total is None:
+                total = part
+            elif self.noisy:
+                total = np.matmul(part, total)
+            else:
+                total = (np.matmul(part[0], total[0]), np.einsum("...ij,...j->...i", part[0], total[1]) + part[1])
+        return total
+
+    def _kink_times(self, p: PlantParams, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray] | None:
+        """Times (k,) in ``[lo, hi]`` at which each draw's spot reaches a scale where ``A`` jumps
+        (``hi`` where it does not in the piece), in order; ``None`` if no draw's does."""
+        if self.scales is None or not self.scales.kinks:
+            return None
+        ratio = p.acceleration / self.nominal_acceleration * np.ones(len(lo))
+        length = self.config.diffraction_length_m
+        cuts = []
+        for kink in self.scales.kinks:
+            distance = length * math.exp(kink)
+            inside = (self.flights.distance(ratio, lo) < distance) & (distance < self.flights.distance(ratio, hi))
+            if not inside.any():
+                continue
+            below, above = lo.copy(), hi.copy()
+            for _ in range(BISECTIONS):
+                half = 0.5 * (below + above)
+                short = self.flights.distance(ratio, half) < distance
+                below, above = np.where(short, half, below), np.where(short, above, half)
+            cuts.append(np.where(inside, above, hi))
+        return list(np.sort(cuts, axis=0)) if cuts else None
 
     def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         a_rad = p.a - self.kinematics
@@ -295,9 +386,7 @@ class RigidPlant(LinearPlant):
         """The landing jitter and the ground jitter ``D(t)·δ`` (independent; ``D`` of the draw's flight)."""
         if not self.ground_jitter_rad:
             return self.beam_jitter_m
-        ratio = p.acceleration / self.nominal_acceleration
-        # β_r(t) = β(r t), so D_r(t) = ∫ β(r s) c ds = D(r t) / r.
-        distance = self.flight.distance(self._flight_time(ratio, t)) / ratio
+        distance = self.flights.distance(p.acceleration / self.nominal_acceleration, t)
         return np.hypot(self.beam_jitter_m, distance * self.ground_jitter_rad)[:, None]
 
     def rate_scale(self) -> float:

@@ -214,7 +214,7 @@ def test_power_input_scales_the_radiation_terms():
     ({"curvature_radius_m": 1.0}, "curvature_radius_m"), ({"com_distance_m": -1.0}, "com_distance_m"),
     ({"absorptivity": 1.5}, "absorptivity"), ({"power_control": 2.0}, "power_control"),
     ({"relativistic": 1}, "relativistic"),
-    ({"ground_jitter_rad": -1e-15}, "ground_jitter_rad"), ({"start_half_widths": (1e-3,) * 4}, "start_half_widths"),
+    ({"ground_jitter_rad": -1e-15}, "ground_jitter_rad"), ({"diffraction_length_m": 0.0}, "diffraction_length_m"), ({"start_half_widths": (1e-3,) * 4}, "start_half_widths"),
     ({"sensor_noise_std": (1e-3,) * 4}, "sensor_noise_std"), ({"parameter_spread": 0.7}, "parameter_spread"),
     ({"beam_jitter_m": -1.0}, "beam_jitter_m"), ({"spin_rad_s": float("nan")}, "spin_rad_s"),
 ])

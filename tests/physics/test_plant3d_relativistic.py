@@ -83,3 +83,12 @@ def test_coast_matches_an_integration_of_the_time_varying_model():
     held, _ = RigidPlant.__mro__[1].coast(plant, p, x0[None], u[None], np.array([end - start]), None,
                                          np.array([plant.config.window_middle_s]))
     assert np.hypot(*(held[0, 2:4] - reference[2:4])) / np.hypot(*reference[2:4]) > 10 * BOUND
+
+
+def test_shared_model_steps_as_a_draw_of_nominal_factors():
+    """Without a spread the shared model's push expansion takes the window's radiation terms (the
+    Doppler factor included), as every drawn model does: the same step to round-off."""
+    plant = realistic_plant(push_noise=0.01)
+    shared = plant.params(np.ones((1, 3)))
+    drawn = plant._build(np.ones((1, 3)), shared=False)
+    np.testing.assert_allclose(shared.step, drawn.step, rtol=1e-12, atol=1e-12 * np.abs(drawn.step).max())

@@ -19,6 +19,9 @@ from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.relativity import diffraction_scale, doppler_push_factor
 from sail_env.physics.rigid3d.body import RigidSail, axial_rates
 
+#: Flights a :class:`DrawFlights` with diffraction integrates across the draws' range of ``F/m``.
+DRAW_NODES = 9
+
 
 @dataclasses.dataclass(frozen=True)
 class Flight:
@@ -77,3 +80,53 @@ def fly(sail: RigidSail, duration_s: float, relativistic: bool = True,
     if not solution.success:
         raise RuntimeError(f"flight integration failed: {solution.message}")
     return Flight(duration_s, relativistic, diffraction_length_m, solution.sol)
+
+
+class DrawFlights:
+    """The flights of sails with ``r`` times the nominal sail's ``F/m`` (a parameter draw), for
+    ``1/r_max ≤ r ≤ r_max``, all read at their own lab time ``t`` (docs/physics.md §14).
+
+    Substituting ``τ = r t`` and ``D̃ = r D`` in the axial law turns the flight of ratio ``r`` into
+    the nominal sail's with the diffraction length ``r L0``, read at ``τ``. Without diffraction
+    that is the nominal flight itself (``q_r(t) = q(r t)``, ``D_r(t) = D(r t)/r``): one
+    integration, exact. With diffraction the flights are integrated at :data:`DRAW_NODES`
+    ratios equally spaced in ``ln r`` (the nominal one among them) and each quantity at ``τ`` is
+    interpolated linearly in ``ln r`` between the two nodes around the draw.
+    """
+
+    def __init__(self, sail: RigidSail, duration_s: float, relativistic: bool, diffraction_length_m: float,
+                 largest_ratio: float) -> None:
+        count = DRAW_NODES if math.isfinite(diffraction_length_m) and largest_ratio > 1 else 1
+        self.log_ratios = np.linspace(-math.log(largest_ratio), math.log(largest_ratio), count)
+        self.diffraction_length_m = diffraction_length_m
+        self.flights = [fly(sail, duration_s * largest_ratio, relativistic, diffraction_length_m * math.exp(x))
+                        for x in self.log_ratios]
+        self.nominal = self.flights[count // 2]
+
+    def _read(self, quantity: str, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
+        ratio, t = np.broadcast_arrays(np.atleast_1d(np.asarray(ratio, float)), np.asarray(t, float))
+        scaled = ratio * t
+        if np.any(scaled > self.nominal.duration_s * (1 + 1e-12)):
+            raise ValueError(f"flight time {float(np.max(t))} s is beyond the integrated flight "
+                             f"({self.nominal.duration_s} s at the nominal push)")
+        if len(self.flights) == 1:
+            return getattr(self.nominal, quantity)(scaled)
+        position = np.interp(np.log(ratio), self.log_ratios, np.arange(len(self.flights)))
+        low = np.minimum(position.astype(np.int64), len(self.flights) - 2)
+        frac = position - low
+        values = np.stack([getattr(f, quantity)(scaled) for f in self.flights])
+        below = np.take_along_axis(values, low[None], axis=0)[0]
+        above = np.take_along_axis(values, low[None] + 1, axis=0)[0]
+        return (1 - frac) * below + frac * above
+
+    def speed(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return self._read("speed", ratio, t)
+
+    def power_factor(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return self._read("power_factor", ratio, t)
+
+    def distance(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return self._read("distance", ratio, t) / ratio
+
+    def beam_scale(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return diffraction_scale(self.distance(ratio, t), self.diffraction_length_m)

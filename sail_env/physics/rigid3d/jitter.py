@@ -40,24 +40,14 @@ from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, RigidSailConfig
 from sail_env.physics.rigid3d.flight import Flight, fly
-from sail_env.physics.rigid3d.linearise import Linearisation, linearise
+from sail_env.physics.rigid3d.linearise import linearise
+from sail_env.physics.rigid3d.scales import ScaleTable
 
 #: The control step the per-step levels refer to (the planar tasks' 5 ms).
 STEP_S = SEED.control_step_s
-#: Entries of the radiation part of ``A`` and ``B`` below this fraction of their natural
-#: scale (push/(m a), push/m, push Lc/(I a), push Lc/I) are central-difference round-off
-#: (~1e-8 relative) of quantities that vanish by symmetry; left in, they give a neutral
-#: sail a spurious √ε growth that 600 s of propagation would amplify.
-ROUND_OFF = 1e-6
 #: A sail whose largest growth rate along the flight exceeds this [1/s] is reported unstable
 #: (e^0.6 over the 600 s beam time).
 GROWTH_FLOOR = 1e-3
-#: Ratio of neighbouring beam scales at which the wrench Jacobian is evaluated along the
-#: flight (interpolated linearly in ln scale between them).
-SCALE_STEP = 1.05
-#: A hard beam edge crossing the rim (beam radius × scale = aperture) changes the stiffnesses
-#: discontinuously: the grid takes points this far (in ln scale) on either side, never across.
-EDGE_CLEARANCE = 1e-4
 #: Where ``A`` changes by more than this fraction over a segment, the segment is split so that
 #: the fastest mode turns by at most :data:`MAX_PHASE_RAD` per piece: ``A`` held piecewise
 #: constant then jumps at a rate that could pump the oscillation parametrically (measured:
@@ -234,50 +224,26 @@ def planar_tolerable_ground_jitter(config: SailConfig = SEED, start_s: float = 0
 
 # --- The rigid 3D sail along its flight ---
 
-def _cleaned(lin: Linearisation, aperture_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Radiation part of ``A`` and ``B`` with round-off of vanishing entries set to zero."""
-    force, torque = lin.push_n / lin.mass_kg, lin.push_n * lin.com_distance_m / lin.inertia[0, 0]
-    rows = np.array([0, 0, force, force, 0, 0, torque, torque])[:, None]
-    length, angle = 1.0 / aperture_m, 1.0
-    a_scale = rows * np.array([length, length, 0, 0, angle, angle, 0, 0])
-    b_scale = rows * np.array([length, length, angle, angle])
-    radiation = np.where(np.abs(lin.push_sensitivity) > ROUND_OFF * a_scale, lin.push_sensitivity, 0.0)
-    b = np.where(np.abs(lin.B) > ROUND_OFF * b_scale, lin.B, 0.0)
-    return radiation, b
-
-
 class FlightModel:
     """The lateral linear model along a flight: ``A(t) = K + p(t) R(s(t))``, ``B(t) = p(t) B(s(t))``
     with ``p`` the Doppler factor and ``s`` the spot widening; ``R`` and ``B`` are linearised
-    on a grid of scales and interpolated in ``ln s`` (never across a hard edge meeting the rim)."""
+    on a grid of scales and interpolated in ``ln s`` (:class:`~sail_env.physics.rigid3d.scales.ScaleTable`)."""
 
     def __init__(self, sail: RigidSail, flight: Flight) -> None:
         self.sail, self.flight = sail, flight
         base = linearise(sail)
         self.kinematic = base.A - base.push_sensitivity
-        self.log_scales, kinks = _scale_grid(sail.config, float(flight.beam_scale(flight.duration_s)))
+        self.table = ScaleTable(sail, float(flight.beam_scale(flight.duration_s)))
+        self.log_scales = self.table.log_scales
         # Times at which the spot starts widening or an edge meets the rim: segments end there.
         self.kink_times = [scipy.optimize.brentq(lambda t, x=x: math.log(flight.beam_scale(t)) - x - 1e-12,
-                                                 0.0, flight.duration_s) for x in kinks]
-        parts = [_cleaned(linearise(sail, beam_scale=float(math.exp(x))), sail.config.aperture_radius_m)
-                 for x in self.log_scales]
-        self.radiation = np.stack([p[0] for p in parts])
-        self.inputs = np.stack([p[1] for p in parts])
+                                                 0.0, flight.duration_s) for x in self.table.kinks]
 
     def matrices(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """``A`` (8, 8) and ``B`` (8, 4) at flight time ``t``."""
-        log_scale = math.log(float(self.flight.beam_scale(t)))
-        if log_scale <= 0.0:  # up to L0; beyond, never mixed with it (an edge may sit at s = 1)
-            radiation, inputs = self.radiation[0], self.inputs[0]
-        else:
-            grid = self.log_scales[1:]
-            weight = np.interp(log_scale, grid, np.arange(grid.size))
-            low = min(int(weight), grid.size - 2)
-            frac = weight - low
-            radiation = (1 - frac) * self.radiation[1 + low] + frac * self.radiation[2 + low]
-            inputs = (1 - frac) * self.inputs[1 + low] + frac * self.inputs[2 + low]
+        radiation, inputs = self.table.at(np.atleast_1d(self.flight.beam_scale(t)))
         power = float(self.flight.power_factor(t))
-        return self.kinematic + power * radiation, power * inputs
+        return self.kinematic + power * radiation[0], power * inputs[0]
 
     def segments(self, start_s: float, segment_s: float) -> Iterator[tuple[float, float, np.ndarray, np.ndarray]]:
         """``(t0, t1, A, B)`` with ``A``, ``B`` held at mid-segment; split where ``A`` changes fast."""
@@ -295,25 +261,6 @@ class FlightModel:
             cuts = np.linspace(lo, hi, pieces + 1)
             for start, end in zip(cuts[:-1], cuts[1:]):
                 yield (start, end, *self.matrices(0.5 * (start + end)))
-
-
-def _scale_grid(config: RigidSailConfig, top: float) -> tuple[np.ndarray, list[float]]:
-    """Grid of ``ln s`` on ``[0, ln top]``: ``s = 1`` itself, then pieces between the scales where a
-    hard beam edge meets the rim (``s r_edge = a``), each kept :data:`EDGE_CLEARANCE` clear of them;
-    and the piece ends inside ``[0, ln top)`` (where ``A`` has kinks or jumps)."""
-    if top <= 1.0:
-        return np.zeros(1), []
-    end = math.log(top)
-    edges = {0.0, end}
-    if config.beam_profile in ("flat-top", "annulus"):
-        radii = [config.outer_beam_radius_m] + ([config.inner_beam_radius_m] if config.beam_profile == "annulus" else [])
-        edges |= {x for r in radii if 0 < (x := math.log(config.aperture_radius_m / r)) < end}
-    edges = sorted(edges)
-    points = [np.zeros(1)]
-    for lo, hi in zip(edges[:-1], edges[1:]):
-        lo, hi = lo + EDGE_CLEARANCE, max(hi - EDGE_CLEARANCE, lo + EDGE_CLEARANCE)
-        points.append(np.linspace(lo, hi, max(2, math.ceil((hi - lo) / math.log(SCALE_STEP)) + 1)))
-    return np.concatenate(points), edges[:-1]
 
 
 def ground_jitter_tolerance(model: FlightModel, start_s: float = 0.0, segment_s: float = 1.0,
