@@ -34,7 +34,7 @@ from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import Flight, fly
-from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, linearise
+from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation, linearise
 
 #: The factors a parameter spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("mass", "inertia", "beam_power")
@@ -44,7 +44,10 @@ POWER_EXPANSION_ORDER = 4
 #: Over the realistic task's 589 s coast the lateral velocity at cut-off is then within 0.8 % of
 #: an integration of the time-varying linear model (2 s: 0.15 %, 10 s: 2.7 %; docs/physics.md §14).
 COAST_SEGMENT_S = 5.0
-X, Y, VX, VY, THETA_X, THETA_Y = range(6)
+X, Y, VX, VY, THETA_X, THETA_Y, OMEGA_X, OMEGA_Y = range(8)
+#: Mean speed [m/s] of interplanetary grains at 1 AU (Grün et al. 1985): with the sail's axial
+#: speed it sets the impact speed; its per-axis share ``/√3`` sets the lateral momentum of a grain.
+DUST_SPEED_M_S = 2.0e4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,6 +64,13 @@ class RigidFlight:
             along the flight by the power factor ``(1−β)/(1+β)``.
         ground_jitter_rad: Standard deviation of the ground station's pointing angle per control
             step: the spot moves by ``D(t)·δ`` at the sail on both axes (docs/physics.md §12).
+        payload_offset_m: Distance of the payload from the sail axis (along x), at most the
+            aperture radius: the CoM leaves the axis by ``e·m_craft/m`` and the push exerts a
+            constant torque about it (docs/physics.md §15).
+        dust_density_m3: Number density of dust grains [1/m³] the sail sweeps up at its speed
+            (0: no impacts; docs/physics.md §15).
+        dust_grain_mass_kg: Mass of one grain [kg]: each impact kicks the tilt rates and the
+            lateral velocity at random (a compound Poisson process).
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
             :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
     """
@@ -70,6 +80,9 @@ class RigidFlight:
     power_control: float = 0.0
     relativistic: bool = False
     ground_jitter_rad: float = 0.0
+    payload_offset_m: float = 0.0
+    dust_density_m3: float = 0.0
+    dust_grain_mass_kg: float = 0.0
     beam_cutoff_s: float = SEED.beam_cutoff_s
     control_step_s: float = SEED.control_step_s
     control_window_s: float = SEED.control_window_s
@@ -89,8 +102,12 @@ class RigidFlight:
         for name in ("beam_cutoff_s", "control_step_s", "control_window_s"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if self.ground_jitter_rad < 0:
-            raise ValueError(f"ground_jitter_rad must be >= 0, got {self.ground_jitter_rad}")
+        for name in ("ground_jitter_rad", "dust_density_m3", "dust_grain_mass_kg"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0 <= self.payload_offset_m <= self.sail.aperture_radius_m:
+            raise ValueError(f"payload_offset_m must be in [0, aperture_radius_m = {self.sail.aperture_radius_m}], "
+                             f"got {self.payload_offset_m}")
         if not 0 <= self.power_control <= 0.5:
             raise ValueError(f"power_control must be in [0, 0.5], got {self.power_control}")
         if self.control_start_s < 0:
@@ -111,6 +128,19 @@ class RigidFlight:
     def control_steps(self) -> int:
         """Number of control steps in the window (rounded to whole steps)."""
         return max(1, round(self.control_window_s / self.control_step_s))
+
+
+def payload_term(lin: Linearisation, flight: RigidFlight) -> np.ndarray:
+    """The constant term ``c`` (8,) of a payload ``e`` off the axis along x (docs/physics.md §15).
+
+    The CoM sits ``e_c = e m_craft / m`` off the axis, so the sail lies ``e_c`` to −x of it: the
+    radiation terms see the CoM offset ``x − e_c``, and the push ``F`` through the axis exerts the
+    torque ``F e_c`` about y on the CoM (first order in ``e_c``; the inertia tensor's change is second).
+    """
+    offset = flight.payload_offset_m * flight.sail.craft_mass_kg / lin.mass_kg
+    term = -offset * lin.push_sensitivity[:, X]
+    term[OMEGA_Y] += lin.push_n * offset / lin.inertia[0, 0]
+    return term
 
 
 class RigidPlant(LinearPlant):
@@ -139,9 +169,14 @@ class RigidPlant(LinearPlant):
         self.input_names = INPUT_NAMES + (("beam_power",) if power else ())
         self.input_units = ("m", "m", "rad", "rad") + (("1",) if power else ())
         self.input_ranges = {"1": flight.power_control} if power else {}
-        # The power input has no column of B: it acts through A (and B) parametrically.
-        b = np.zeros((8, len(self.input_names)))
+        self.biased = flight.payload_offset_m > 0
+        # The power input has no column of B: it acts through A (and B) parametrically. The payload's
+        # constant term is a last column with its input held at 1; it scales with the push like B.
+        m = len(self.input_names)
+        b = np.zeros((8, m + self.biased))
         b[:, :4] = lin.B
+        if self.biased:
+            b[:, m] = payload_term(lin, flight)
         self.kinematics = lin.A - lin.push_sensitivity
         self.radiation = lin.push_sensitivity
         self.radiation_b = b
@@ -149,18 +184,22 @@ class RigidPlant(LinearPlant):
         self.fixed_state = {"spin": flight.spin_rad_s}  # a launch state may name it, not change it
         self.flight: Flight | None = None
         self.ground_jitter_rad = flight.ground_jitter_rad
-        self.time_varying = flight.relativistic or flight.ground_jitter_rad > 0
-        if self.time_varying:
+        dusty = flight.dust_density_m3 > 0 and flight.dust_grain_mass_kg > 0
+        self.impulse_rows = (VX, VY, OMEGA_X, OMEGA_Y) if dusty else ()
+        # The impacts' rate and size grow with the sail's speed: the coast holds them piecewise.
+        self.time_varying = flight.relativistic or flight.ground_jitter_rad > 0 or dusty
+        if flight.relativistic or flight.ground_jitter_rad > 0:
             # Without diffraction the flight of a sail with r times the nominal F/m is the nominal
             # one at r t (d(γβ)/dt = r F₀ f(β) / (m₀ c)): one integration serves every draw.
             fastest = (1 + parameter_spread) / (1 - parameter_spread)
             self.flight = fly(self.sail, 2.0 * flight.beam_cutoff_s * fastest, relativistic=flight.relativistic)
         window = self.power_factor(np.ones(1), np.full(1, flight.window_middle_s))[0]
         nominal_a = self.kinematics + window * self.radiation if flight.relativistic else lin.A.copy()
-        nominal_b = window * b
-        super().__init__(LinearModel(nominal_a, nominal_b, (window * self.radiation, nominal_b)),
+        self.nominal_b = window * b  # with the constant term's column
+        controls = self.nominal_b[:, :m]
+        super().__init__(LinearModel(nominal_a, controls, (window * self.radiation, controls)),
                          flight.control_step_s, parameter_spread, beam_jitter_m, push_noise)
-        self.noisy = self.noisy or self.ground_jitter_rad > 0
+        self.noisy = self.noisy or self.ground_jitter_rad > 0 or dusty
 
     @property
     def power_control(self) -> bool:
@@ -191,7 +230,7 @@ class RigidPlant(LinearPlant):
 
     def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
         if shared:
-            a, b, a_rad = self.nominal.A[None], self.nominal.B[None], self.radiation[None]
+            a, b, a_rad = self.nominal.A[None], self.nominal_b[None], self.radiation[None]
         else:
             a, b, a_rad = self._matrices(factors)
         n, m = b.shape[-2:]
@@ -199,7 +238,8 @@ class RigidPlant(LinearPlant):
             order = POWER_EXPANSION_ORDER if self.power_control else 2
             coeffs = push_expansion(a, b, a_rad, b, self.dt, order)
         else:
-            phi, gamma = self.nominal.discretize(self.dt) if shared else zoh_discretize(a, b, self.dt)
+            exact_nominal = shared and not self.biased
+            phi, gamma = self.nominal.discretize(self.dt) if exact_nominal else zoh_discretize(a, b, self.dt)
             coeffs = np.concatenate([phi, gamma], axis=-1)[:, None]
         step = coeffs.reshape(len(a), -1, n + m)
         growth, freqs = mode_rates(a)
@@ -219,6 +259,36 @@ class RigidPlant(LinearPlant):
 
     def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
         return super().step(p, x, u, self._push(u, push))
+
+    @property
+    def constant_term(self) -> np.ndarray:
+        """The nominal model's constant term ``c`` (8,) of the payload offset (zero without it)."""
+        return self.nominal_b[:, -1] if self.biased else np.zeros(self.n_states)
+
+    def impact_rate_and_std(self, p: PlantParams, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Dust impacts at flight time ``t`` (docs/physics.md §15): the sail of aperture ``a`` sweeps
+        ``n π a² v`` grains a second at the impact speed ``v``; a grain of mass ``m_g`` hitting at a
+        uniformly random point of the disc kicks each tilt rate by ``m_g v y / I_t`` (``y`` of RMS
+        ``a/2``) and each lateral speed by ``m_g u / m`` (``u`` its own speed per axis). Nominal
+        mass and inertia."""
+        c, lin = self.config, self.linearisation
+        radius = c.sail.aperture_radius_m
+        speed = np.hypot(self.speed(p, t), DUST_SPEED_M_S)
+        rate = c.dust_density_m3 * math.pi * radius**2 * speed
+        grain = c.dust_grain_mass_kg
+        lateral = np.full_like(speed, grain * DUST_SPEED_M_S / math.sqrt(3.0) / lin.mass_kg)
+        angular = grain * speed * 0.5 * radius / lin.inertia[0, 0]
+        return rate, np.stack([lateral, lateral, angular, angular], axis=-1)
+
+    def _impact_psd(self, p: PlantParams, t: np.ndarray) -> np.ndarray | None:
+        """White-noise intensity (k, 8, 8) with the impacts' rate × mean squared kick (None without)."""
+        if not self.impulse_rows:
+            return None
+        rate, std = self.impact_rate_and_std(p, t)
+        psd = np.zeros((len(t), self.n_states, self.n_states))
+        rows = list(self.impulse_rows)
+        psd[:, rows, rows] = rate[:, None] * std**2
+        return psd
 
     def start_limits(self) -> np.ndarray:
         c = self.config.sail
@@ -261,7 +331,7 @@ class RigidPlant(LinearPlant):
         """:meth:`LinearPlant.coast_pieces`, and with the relativistic push pieces of at most
         :data:`COAST_SEGMENT_S`."""
         pieces = super().coast_pieces(p, duration)
-        if self.flight is None:
+        if not self.time_varying:
             return pieces
         return np.maximum(pieces, np.ceil(duration / COAST_SEGMENT_S).astype(np.int64))
 
@@ -285,7 +355,8 @@ class RigidPlant(LinearPlant):
     def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         a_rad = p.a - self.kinematics
         psd = None if not self.ground_jitter_rad else self.jitter_std(p, t)[:, 0] ** 2 * self.dt
-        return moment_generator(p.a, p.b, u, self.white_noise, (a_rad, p.b), self.jitter_inputs, psd)
+        return moment_generator(p.a, p.b, self.with_bias(u), self.white_noise, (a_rad, p.b), self.jitter_inputs, psd,
+                                self._impact_psd(p, t))
 
     @property
     def jittered(self) -> bool:
