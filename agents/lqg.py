@@ -10,6 +10,8 @@
 * The LQR gain of :mod:`agents.lqr`, with the same weights, acts on that prediction. (An input
   weight of 10, once chosen on the planar tasks, was no better there and fails the 3D sail with
   absorption, whose tilt is slowly unstable: 12 % against 100 % success.)
+* A known constant term of the model (a payload off the sail axis, docs/physics.md §15) drives
+  the prediction too; the gain does not cancel it (the loop settles where the sail is at rest).
 
 Only the nominal model, the noise levels and the nominal light delay are used; the
 episode's randomised parameters are not.
@@ -22,6 +24,7 @@ import scipy.linalg
 
 from agents.lqr import INPUT_WEIGHT, lqr_gain, state_weights
 from sail_env.core.spec import EpisodeSpec
+from sail_env.physics.linear import zoh_discretize
 
 #: Process-noise floor per step, relative to the observation scales (model mismatch).
 MODEL_MISMATCH = 3e-3
@@ -39,6 +42,8 @@ class LQGAgent:
         self.spec = spec
         model, dt, scale = spec.nominal, spec.dt, spec.state_scale
         self.phi, self.gamma = model.discretize(dt)
+        # The constant term c as an input held at 1: its exact step drive ∫Φ c.
+        self.drift = zoh_discretize(model.A, spec.plant.constant_term[:, None], dt)[1][:, 0]
         self.gain = lqr_gain(model, dt, scale, spec.action_scale, input_weight, state_weights(spec))
         dist = spec.disturbances
         a_push, _ = model.push_sensitivity
@@ -66,7 +71,7 @@ class LQGAgent:
         return self.sent[min(index, len(self.sent) - 1)]
 
     def _predict(self, state: np.ndarray, step: int) -> np.ndarray:
-        return state @ self.phi.T + self._applied(step, state) @ self.gamma.T
+        return state @ self.phi.T + self._applied(step, state) @ self.gamma.T + self.drift
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         measured = self.spec.observation_to_state(observation)

@@ -21,6 +21,13 @@ from __future__ import annotations
 from sail_env.physics.config import DEEP_DISH, SEED
 from sail_env.physics.rigid3d.jitter import GROUND_JITTER_BENCHMARK_RAD, diffraction_length_m
 
+#: Interplanetary dust at 1 AU (Grün et al. 1985): grains of 10 µm and up (≥ 1e-12 kg), 6e-10 per m³;
+#: the realistic 3D task sweeps ~100 of them in a flight (docs/physics.md §15).
+DUST_DENSITY_M3 = 6.0e-10
+DUST_GRAIN_MASS_KG = 1.0e-12
+#: Payload placement tolerance after deployment: 5 mm off the axis of the 4 m sail on 10 m struts.
+PAYLOAD_OFFSET_M = 5.0e-3
+
 #: The deep dish restores its tilt stiffly, so tilt barely reaches V⊥; a wider lateral
 #: start (±3 cm, ±0.6 m/s) makes the passive sail fail on about half of the episodes.
 DEEP_DISH_START_HALF_WIDTHS = (3e-2, 0.6, 2e-3, 1e-5)
@@ -51,6 +58,8 @@ RIGID3D_TASKS: dict[str, dict] = {
                                 "ground_jitter_rad": GROUND_JITTER_BENCHMARK_RAD,
                                 # The spot of a 10 km array widens beyond the L0 of its beam, the aperture's size (§14).
                                 "diffraction_length_m": diffraction_length_m(SEED.aperture_radius_m),
+                                "payload_offset_m": PAYLOAD_OFFSET_M, "dust_density_m3": DUST_DENSITY_M3,
+                                "dust_grain_mass_kg": DUST_GRAIN_MASS_KG,
                                 "start_half_widths": tuple(w for w in DEEP_DISH_START_HALF_WIDTHS for _ in range(2)),
                                 **REALISTIC_DISTURBANCES, "beam_jitter_m": 0.0,
                                 "sensor_noise_std": tuple(s for s in REALISTIC_DISTURBANCES["sensor_noise_std"]

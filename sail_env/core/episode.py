@@ -5,8 +5,9 @@ written once over N environments as arrays. ``LightSailEnv`` is the core with N 
 Randomness. Each environment has its own ``numpy.random.Generator``. At reset it draws,
 in this order: the parameter factors (with spread), the cut-off time (with jitter), the
 launch state (unless given), then in one call every standard normal the episode's window
-can need (pre-control propagation, per-step beam jitter and push noise, sensor noise);
-the coast draws its normals when it comes. A batch of environments therefore plays
+can need (pre-control propagation, per-step beam jitter and push noise, sensor noise, the
+plant's random impacts), then the impacts' Poisson count of each step (if the plant has
+impacts); the coast draws its normals when it comes. A batch of environments therefore plays
 exactly the episodes each would play alone with the same seed, whatever N is.
 """
 
@@ -90,6 +91,12 @@ class EpisodeCore:
         self.jitter = np.zeros((n, self.noise_steps, len(plant.jitter_inputs))) if plant.jittered else None
         self.push = np.zeros((n, self.noise_steps)) if dist.push_noise else None
         self.sensor = np.zeros((n, spec.n_steps + 1, plant.n_states)) if dist.any_sensor_noise else None
+        # Random impacts (compound Poisson): a count per step and Gaussian kicks given the count, whose
+        # sum is √count · std · normal; rate and std are the plant's at the window's middle.
+        impacts = len(plant.impulse_rows)
+        self.impact_counts = np.zeros((n, self.noise_steps)) if impacts else None
+        self.impact_normals = np.zeros((n, self.noise_steps, impacts)) if impacts else None
+        self.impact_std = np.zeros((n, impacts)) if impacts else None
         self._rows = np.arange(n)
 
     # ------------------------------------------------------------------ reset
@@ -123,13 +130,16 @@ class EpisodeCore:
         pre_pieces = np.zeros(k, dtype=np.int64)
         if plant.noisy:
             pre_pieces[:] = plant.coast_pieces(params, pre_control)
+        if self.impact_counts is not None:
+            middle = spec.config.control_start_s + 0.5 * spec.n_steps * spec.dt
+            impact_rate, self.impact_std[index] = plant.impact_rate_and_std(params, np.full(k, middle))
         # Each environment draws only what it needs alone, whatever the others' pre-control pieces.
         pre_normals = np.zeros((k, int(pre_pieces.max(initial=0)), n_states))
         for row, (i, rng) in enumerate(zip(index, rngs)):
             sizes = self._normal_sizes(int(pre_pieces[row]))
             if not sum(sizes):
                 continue
-            pre, jitter, push, sensor = np.split(rng.standard_normal(sum(sizes)), np.cumsum(sizes)[:-1])
+            pre, jitter, push, sensor, impacts = np.split(rng.standard_normal(sum(sizes)), np.cumsum(sizes)[:-1])
             pre_normals[row, :pre_pieces[row]] = pre.reshape(-1, n_states)
             if self.jitter is not None:
                 self.jitter[i] = jitter.reshape(self.noise_steps, -1)
@@ -137,6 +147,9 @@ class EpisodeCore:
                 self.push[i] = push
             if self.sensor is not None:
                 self.sensor[i] = sensor.reshape(-1, n_states)
+            if self.impact_counts is not None:
+                self.impact_normals[i] = impacts.reshape(self.noise_steps, -1)
+                self.impact_counts[i] = rng.poisson(impact_rate[row] * spec.dt, self.noise_steps)
 
         x = launch
         if np.any(pre_control > 0):
@@ -155,10 +168,11 @@ class EpisodeCore:
                 self.states[index[moving], s + 1] = x[moving]
         self.x[index] = x
 
-    def _normal_sizes(self, pre_pieces: int) -> tuple[int, int, int, int]:
-        """Standard normals per environment: pre-control, jitter, push, sensor."""
+    def _normal_sizes(self, pre_pieces: int) -> tuple[int, int, int, int, int]:
+        """Standard normals per environment: pre-control, jitter, push, sensor, impacts."""
         return (self.spec.plant.n_states * pre_pieces, 0 if self.jitter is None else self.jitter[0].size,
-                0 if self.push is None else self.noise_steps, 0 if self.sensor is None else self.sensor[0].size)
+                0 if self.push is None else self.noise_steps, 0 if self.sensor is None else self.sensor[0].size,
+                0 if self.impact_normals is None else self.impact_normals[0].size)
 
     # ------------------------------------------------------------------ step
     def _physics_step(self, index: np.ndarray, params, x: np.ndarray, u: np.ndarray,
@@ -171,7 +185,13 @@ class EpisodeCore:
             std = self.spec.plant.jitter_std(params, middle * np.ones(len(index)))
             u[:, list(self.spec.plant.jitter_inputs)] += std * take(self.jitter, index, noise_column)
         push = None if self.push is None else self.spec.disturbances.push_noise * take(self.push, index, noise_column)
-        return self.spec.plant.step(params, x, u, push)
+        x = self.spec.plant.step(params, x, u, push)
+        if self.impact_counts is not None:
+            # The step's impacts land at its end (the exact moments of the kicks are not resolved).
+            kick = np.sqrt(take(self.impact_counts, index, noise_column))[:, None] * self.impact_std[index]
+            x = x.copy()
+            x[:, list(self.spec.plant.impulse_rows)] += kick * take(self.impact_normals, index, noise_column)
+        return x
 
     def _applied(self, index: np.ndarray, step: np.ndarray, newest: np.ndarray | int) -> np.ndarray:
         """The command acting during ``step``: the newest arrived (at most ``newest``, the last

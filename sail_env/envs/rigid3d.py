@@ -22,6 +22,7 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  curvature_radius_m: float = SEED.curvature_radius_m, com_distance_m: float = SEED.com_distance_m,
                  absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
                  relativistic: bool = False, ground_jitter_rad: float = 0.0, diffraction_length_m: float = math.inf,
+                 payload_offset_m: float = 0.0, dust_density_m3: float = 0.0, dust_grain_mass_kg: float = 0.0,
                  power_control: bool | float = False,
                  control_start_s: float = SEED.control_start_s, max_beam_offset_m: float = 0.02,
                  max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
@@ -45,7 +46,9 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                            reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
     flight = RigidFlight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
                          relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
-                         diffraction_length_m=diffraction_length_m, control_start_s=control_start_s)
+                         diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
+                         dust_density_m3=dust_density_m3, dust_grain_mass_kg=dust_grain_mass_kg,
+                         control_start_s=control_start_s)
     return EpisodeSpec(flight, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
                        start_half_widths=start_half_widths,
                        disturbances=Disturbances(sensor_noise_std=sensor_noise_std, beam_jitter_m=beam_jitter_m,
@@ -141,6 +144,8 @@ class LightSail3DEnv(LightSailEnv):
     | ``relativistic`` | False | relativistic push with the Doppler factor (see below) |
     | ``ground_jitter_rad`` | 0 | σ of the ground pointing angle per step: the spot moves by ``D(t)·δ`` on both axes |
     | ``diffraction_length_m`` | inf | ``L0``: beyond it the spot widens as ``D/L0`` and its intensity falls as ``(L0/D)²`` (see below) |
+    | ``payload_offset_m`` | 0 | payload's distance from the sail axis (along x): a constant torque ``F e m_craft/m`` (≤ ``a``) |
+    | ``dust_density_m3``, ``dust_grain_mass_kg`` | 0, 0 | dust grains swept up at the sail's speed: random kicks of the tilt rates and lateral speeds (both > 0 to switch on) |
     | ``control_start_s`` | 0 | flight time at which control starts |
     | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 |
     | ``start_half_widths`` | see above | 8 half-widths in state order |
@@ -157,6 +162,17 @@ class LightSail3DEnv(LightSailEnv):
     ``s = D/L0`` with the intensity ``/s²`` (Kulkarni, Lubin & Zhang 2018): the push falls and every
     stiffness follows the distance, in the window, over the coast, in ``Vz`` and in the ground
     jitter's ``D(t)`` (docs/physics.md §14).
+
+    Dust and payload (docs/physics.md §15). Dust impacts are a compound Poisson process: the sail
+    sweeps ``n π a² v`` grains a second (``v`` the impact speed, the sail's speed and the grains'
+    20 km/s), each kicking the tilt rates by ``m_g v y / I_t`` (``y`` the random impact point,
+    RMS ``a/2``) and the lateral speeds by the grain's own lateral momentum over ``m``. In the
+    window each step draws its Poisson count and Gaussian kicks given the count (rate and size at
+    the window's middle), which land at the step's end; over the coast the impacts act as white
+    noise of the same intensity (rate × mean squared kick, growing as ``v³``), exact in the first two
+    moments. The payload offset ``e`` puts the CoM ``e m_craft/m`` off the axis: the push exerts a
+    constant torque about y and the equilibrium tilts until the force line passes through the CoM;
+    it is modelled fixed in the lab frame (with spin it turns at ``Ω`` in truth, see §15).
     """
 
     metadata = {"render_modes": [], "render_fps": 30}

@@ -63,13 +63,15 @@ class WhiteNoise:
 
 def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
                      push: tuple[np.ndarray, np.ndarray] | None = None,
-                     jitter_inputs: tuple[int, ...] = (0,), jitter_psd: np.ndarray | None = None) -> np.ndarray:
+                     jitter_inputs: tuple[int, ...] = (0,), jitter_psd: np.ndarray | None = None,
+                     state_psd: np.ndarray | None = None) -> np.ndarray:
     """The ``(n+1)² × (n+1)²`` matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``),
     batched over the leading axes of ``a`` (..., n, n), ``b`` (..., n, m) and ``action`` (..., m).
 
     ``push`` is ``(∂A/∂ln F, ∂B/∂ln F)``, by default the planar model's; the beam jitter acts,
     independently and with the same PSD, on each input column in ``jitter_inputs``; ``jitter_psd``
-    (batched like ``a``'s leading axes) replaces ``noise``'s beam-jitter PSD.
+    (batched like ``a``'s leading axes) replaces ``noise``'s beam-jitter PSD; ``state_psd`` (..., n, n)
+    is white noise added to the state's derivative directly (its intensity matrix).
     """
     a_push, b_push = push_sensitivity(a, b) if push is None else push
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
@@ -87,6 +89,8 @@ def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Wh
     psd = noise.beam_jitter_psd_m2s if jitter_psd is None else np.asarray(jitter_psd)[..., None, None]
     for column in jitter_inputs:
         jitter[..., :n, :n] += psd * b[..., :, None, column] * b[..., None, :, column]
+    if state_psd is not None:
+        jitter[..., :n, :n] += state_psd
     gen[..., :, -1] += jitter.reshape(*batch, (n + 1) ** 2)
     return gen
 

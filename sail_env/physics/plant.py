@@ -41,7 +41,7 @@ class PlantParams:
     """Per-environment arrays (leading axis k, or 1 when shared); a plant may add fields."""
 
     a: np.ndarray  # (·, n, n) system matrix
-    b: np.ndarray  # (·, n, m) input matrix
+    b: np.ndarray  # (·, n, m) input matrix (m + 1 columns with a constant term, its input held at 1)
     step: np.ndarray  # (·, P·n, n + m) one control step: rows of [Φ Γ] for ε⁰ (and ε¹, ε², … with push noise)
     envelope: np.ndarray  # (·, S, R·(n + m)) look-ahead table of the lateral speed (pointing.envelope_table)
     acceleration: np.ndarray  # (·,) axial acceleration F/m [m/s²]
@@ -91,6 +91,10 @@ class LinearPlant:
     spread_fields: tuple[str, ...]
     jitter_inputs: tuple[int, ...]
     velocity_rows: tuple[int, ...]  # the lateral velocity components (pointing and envelope)
+    #: A constant term ``c`` in ``ds/dt = A s + B u + c``: the last column of ``B``, its input held at 1.
+    biased = False
+    #: State rows a random impact kicks (:meth:`impact_rate_and_std`); empty: no impacts.
+    impulse_rows: tuple[int, ...] = ()
 
     def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, beam_jitter_m: float,
                  push_noise: float) -> None:
@@ -136,10 +140,24 @@ class LinearPlant:
         raise NotImplementedError
 
     # ------------------------------------------------------------------ physics
+    def with_bias(self, u: np.ndarray) -> np.ndarray:
+        """The inputs ``u`` (k, m) with the constant term's input (1) appended when :attr:`biased`."""
+        return np.concatenate([u, np.ones((len(u), 1))], axis=-1) if self.biased else u
+
+    @property
+    def constant_term(self) -> np.ndarray:
+        """The nominal model's constant term ``c`` (n,) (zero unless :attr:`biased`)."""
+        return np.zeros(self.n_states)
+
+    def impact_rate_and_std(self, p: PlantParams, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Mean rate [1/s] (k,) of the random impacts at flight time ``t`` (k,) and the standard
+        deviation (k, r) of one impact's kick on each of :attr:`impulse_rows` (SI rates)."""
+        raise NotImplementedError
+
     def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
         """One control step with ``u`` held; ``push`` (k,) is the relative push error ε of the step."""
         n = self.n_states
-        z = np.concatenate([x, u], axis=-1)
+        z = np.concatenate([x, self.with_bias(u)], axis=-1)
         y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
         if push is None:
             return y[:, :n]
@@ -159,7 +177,7 @@ class LinearPlant:
 
     def peak_speed(self, p: PlantParams, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Largest lateral speed [m/s] the sail would reach with ``u`` held (the envelope)."""
-        return peak_speed(p.envelope[0] if p.shared else p.envelope, x, u, len(self.velocity_rows))
+        return peak_speed(p.envelope[0] if p.shared else p.envelope, x, self.with_bias(u), len(self.velocity_rows))
 
     def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
         """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
@@ -227,11 +245,11 @@ class LinearPlant:
         q = self._coast_params(p, u, middle)
         if self.noisy:
             return scipy.linalg.expm(self._moment_generator(q, u, middle) * piece[:, None, None])
-        if q.shared and np.all(piece == piece[0]):
+        if q.shared and np.all(piece == piece[0]) and not self.biased:
             phi, gamma = self.nominal.discretize(float(piece[0]))
         else:
             phi, gamma = zoh_discretize(q.a, q.b, piece)
-        return phi, np.einsum("...ij,...j->...i", gamma, u)
+        return phi, np.einsum("...ij,...j->...i", gamma, self.with_bias(u))
 
 
 class PlanarPlant(LinearPlant):

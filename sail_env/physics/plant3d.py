@@ -37,7 +37,7 @@ from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights
-from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, linearise
+from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation, linearise
 from sail_env.physics.rigid3d.scales import ScaleTable
 
 #: The factors a parameter spread draws, in draw order (one uniform factor each).
@@ -50,7 +50,10 @@ POWER_EXPANSION_ORDER = 4
 COAST_SEGMENT_S = 5.0
 #: Halvings that locate where a draw's spot starts widening within a coast piece (5 s / 2⁵⁰).
 BISECTIONS = 50
-X, Y, VX, VY, THETA_X, THETA_Y = range(6)
+X, Y, VX, VY, THETA_X, THETA_Y, OMEGA_X, OMEGA_Y = range(8)
+#: Mean speed [m/s] of interplanetary grains at 1 AU (Grün et al. 1985): with the sail's axial
+#: speed it sets the impact speed; its per-axis share ``/√3`` sets the lateral momentum of a grain.
+DUST_SPEED_M_S = 2.0e4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,6 +73,13 @@ class RigidFlight:
         diffraction_length_m: ``L0``: beyond it the spot widens as ``D/L0`` with its intensity
             falling as ``(L0/D)²`` (Kulkarni, Lubin & Zhang 2018), and every radiation term follows
             (docs/physics.md §7, §14); ``inf`` (default): the spot never widens.
+        payload_offset_m: Distance of the payload from the sail axis (along x), at most the
+            aperture radius: the CoM leaves the axis by ``e·m_craft/m`` and the push exerts a
+            constant torque about it (docs/physics.md §15).
+        dust_density_m3: Number density of dust grains [1/m³] the sail sweeps up at its speed
+            (0: no impacts; docs/physics.md §15).
+        dust_grain_mass_kg: Mass of one grain [kg]: each impact kicks the tilt rates and the
+            lateral velocity at random (a compound Poisson process).
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
             :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
     """
@@ -80,6 +90,9 @@ class RigidFlight:
     relativistic: bool = False
     ground_jitter_rad: float = 0.0
     diffraction_length_m: float = math.inf
+    payload_offset_m: float = 0.0
+    dust_density_m3: float = 0.0
+    dust_grain_mass_kg: float = 0.0
     beam_cutoff_s: float = SEED.beam_cutoff_s
     control_step_s: float = SEED.control_step_s
     control_window_s: float = SEED.control_window_s
@@ -102,8 +115,12 @@ class RigidFlight:
         for name in ("beam_cutoff_s", "control_step_s", "control_window_s"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if self.ground_jitter_rad < 0:
-            raise ValueError(f"ground_jitter_rad must be >= 0, got {self.ground_jitter_rad}")
+        for name in ("ground_jitter_rad", "dust_density_m3", "dust_grain_mass_kg"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0 <= self.payload_offset_m <= self.sail.aperture_radius_m:
+            raise ValueError(f"payload_offset_m must be in [0, aperture_radius_m = {self.sail.aperture_radius_m}], "
+                             f"got {self.payload_offset_m}")
         if not 0 <= self.power_control <= 0.5:
             raise ValueError(f"power_control must be in [0, 0.5], got {self.power_control}")
         if self.control_start_s < 0:
@@ -135,6 +152,21 @@ class RigidParams(PlantParams):
     rows: np.ndarray
 
 
+def payload_term(flight: RigidFlight, lin: Linearisation, radiation: np.ndarray,
+                 push: np.ndarray | float) -> np.ndarray:
+    """The constant term ``c`` (..., 8) of a payload ``e`` off the axis along x (docs/physics.md §15),
+    for the radiation part of ``A`` (..., 8, 8) and the push [N] (...) of a spot.
+
+    The CoM sits ``e_c = e m_craft / m`` off the axis, so the sail lies ``e_c`` to −x of it: the
+    radiation terms see the CoM offset ``x − e_c``, and the push ``F`` through the axis exerts the
+    torque ``F e_c`` about y on the CoM (first order in ``e_c``; the inertia tensor's change is second).
+    """
+    offset = flight.payload_offset_m * flight.sail.craft_mass_kg / lin.mass_kg
+    term = -offset * radiation[..., :, X]
+    term[..., OMEGA_Y] += np.asarray(push) * offset / lin.inertia[0, 0]
+    return term
+
+
 class RigidPlant(LinearPlant):
     """Batched linearised 3D sail (:mod:`sail_env.physics.rigid3d`) for the episode core.
 
@@ -161,9 +193,14 @@ class RigidPlant(LinearPlant):
         self.input_names = INPUT_NAMES + (("beam_power",) if power else ())
         self.input_units = ("m", "m", "rad", "rad") + (("1",) if power else ())
         self.input_ranges = {"1": flight.power_control} if power else {}
-        # The power input has no column of B: it acts through A (and B) parametrically.
-        b = np.zeros((8, len(self.input_names)))
+        self.biased = flight.payload_offset_m > 0
+        # The power input has no column of B: it acts through A (and B) parametrically. The payload's
+        # constant term is a last column with its input held at 1; it scales with the push like B.
+        m = len(self.input_names)
+        b = np.zeros((8, m + self.biased))
         b[:, :4] = lin.B
+        if self.biased:
+            b[:, m] = payload_term(flight, lin, lin.push_sensitivity, lin.push_n)
         self.kinematics = lin.A - lin.push_sensitivity
         self.radiation = lin.push_sensitivity
         self.radiation_b = b
@@ -172,9 +209,10 @@ class RigidPlant(LinearPlant):
         self.flights: DrawFlights | None = None
         self.scales: ScaleTable | None = None
         self.ground_jitter_rad = flight.ground_jitter_rad
+        dusty = flight.dust_density_m3 > 0 and flight.dust_grain_mass_kg > 0
+        self.impulse_rows = (VX, VY, OMEGA_X, OMEGA_Y) if dusty else ()
         self.diffracting = math.isfinite(flight.diffraction_length_m)
-        self.time_varying = flight.relativistic or flight.ground_jitter_rad > 0 or self.diffracting
-        if self.time_varying:
+        if flight.relativistic or flight.ground_jitter_rad > 0 or self.diffracting:
             # The flights of every draw's F/m, to twice the cut-off (the latest a cut-off jitter allows).
             fastest = (1 + parameter_spread) / (1 - parameter_spread)
             self.flights = DrawFlights(self.sail, 2.0 * flight.beam_cutoff_s, flight.relativistic,
@@ -183,15 +221,18 @@ class RigidPlant(LinearPlant):
                 # A draw's spot is D̃(r t)/(r L0) (DrawFlights): bounded by the farthest node over the slowest draw.
                 farthest = max(float(f.distance(f.duration_s)) for f in self.flights.flights)
                 self.scales = ScaleTable(self.sail, farthest * fastest / flight.diffraction_length_m)
+        # The impacts' rate and size grow with the sail's speed: the coast holds them piecewise too.
+        self.time_varying = self.flights is not None or dusty
         self.flight = None if self.flights is None else self.flights.nominal
         ones, middle = np.ones(1), np.full(1, flight.window_middle_s)
         window = self.power_factor(ones, middle)[0]
-        radiation, inputs = (m[0] for m in self._radiation(ones, middle))
+        radiation, inputs = (matrix[0] for matrix in self._radiation(ones, middle))
         nominal_a = self.kinematics + window * radiation if flight.relativistic or self.diffracting else lin.A.copy()
-        nominal_b = window * inputs
-        super().__init__(LinearModel(nominal_a, nominal_b, (window * radiation, nominal_b)),
+        self.nominal_b = window * inputs  # with the constant term's column
+        controls = self.nominal_b[:, :m]
+        super().__init__(LinearModel(nominal_a, controls, (window * radiation, controls)),
                          flight.control_step_s, parameter_spread, beam_jitter_m, push_noise)
-        self.noisy = self.noisy or self.ground_jitter_rad > 0
+        self.noisy = self.noisy or self.ground_jitter_rad > 0 or dusty
 
     @property
     def power_control(self) -> bool:
@@ -219,6 +260,8 @@ class RigidPlant(LinearPlant):
         widened, inputs = self.scales.at(scale)
         b = np.zeros((len(scale),) + self.radiation_b.shape)
         b[:, :, :4] = inputs
+        if self.biased:
+            b[:, :, -1] = payload_term(self.config, self.linearisation, widened, self.scales.push_at(scale))
         near = (scale <= 1.0)[:, None, None]
         return np.where(near, self.radiation, widened), np.where(near, self.radiation_b, b)
 
@@ -239,7 +282,7 @@ class RigidPlant(LinearPlant):
 
     def _build(self, factors: np.ndarray, shared: bool) -> RigidParams:
         if shared:
-            a, b, a_rad = self.nominal.A[None], self.nominal.B[None], self.nominal.push_sensitivity[0][None]
+            a, b, a_rad = self.nominal.A[None], self.nominal_b[None], self.nominal.push_sensitivity[0][None]
             rows = np.ones((1, 8))
         else:
             a, b, a_rad, rows = self._matrices(factors)
@@ -248,7 +291,8 @@ class RigidPlant(LinearPlant):
             order = POWER_EXPANSION_ORDER if self.power_control else 2
             coeffs = push_expansion(a, b, a_rad, b, self.dt, order)
         else:
-            phi, gamma = self.nominal.discretize(self.dt) if shared else zoh_discretize(a, b, self.dt)
+            exact_nominal = shared and not self.biased
+            phi, gamma = self.nominal.discretize(self.dt) if exact_nominal else zoh_discretize(a, b, self.dt)
             coeffs = np.concatenate([phi, gamma], axis=-1)[:, None]
         step = coeffs.reshape(len(a), -1, n + m)
         growth, freqs = mode_rates(a)
@@ -268,6 +312,36 @@ class RigidPlant(LinearPlant):
 
     def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
         return super().step(p, x, u, self._push(u, push))
+
+    @property
+    def constant_term(self) -> np.ndarray:
+        """The nominal model's constant term ``c`` (8,) of the payload offset (zero without it)."""
+        return self.nominal_b[:, -1] if self.biased else np.zeros(self.n_states)
+
+    def impact_rate_and_std(self, p: PlantParams, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Dust impacts at flight time ``t`` (docs/physics.md §15): the sail of aperture ``a`` sweeps
+        ``n π a² v`` grains a second at the impact speed ``v``; a grain of mass ``m_g`` hitting at a
+        uniformly random point of the disc kicks each tilt rate by ``m_g v y / I_t`` (``y`` of RMS
+        ``a/2``) and each lateral speed by ``m_g u / m`` (``u`` its own speed per axis). Nominal
+        mass and inertia."""
+        c, lin = self.config, self.linearisation
+        radius = c.sail.aperture_radius_m
+        speed = np.hypot(self.speed(p, t), DUST_SPEED_M_S)
+        rate = c.dust_density_m3 * math.pi * radius**2 * speed
+        grain = c.dust_grain_mass_kg
+        lateral = np.full_like(speed, grain * DUST_SPEED_M_S / math.sqrt(3.0) / lin.mass_kg)
+        angular = grain * speed * 0.5 * radius / lin.inertia[0, 0]
+        return rate, np.stack([lateral, lateral, angular, angular], axis=-1)
+
+    def _impact_psd(self, p: PlantParams, t: np.ndarray) -> np.ndarray | None:
+        """White-noise intensity (k, 8, 8) with the impacts' rate × mean squared kick (None without)."""
+        if not self.impulse_rows:
+            return None
+        rate, std = self.impact_rate_and_std(p, t)
+        psd = np.zeros((len(t), self.n_states, self.n_states))
+        rows = list(self.impulse_rows)
+        psd[:, rows, rows] = rate[:, None] * std**2
+        return psd
 
     def start_limits(self) -> np.ndarray:
         c = self.config.sail
@@ -304,7 +378,7 @@ class RigidPlant(LinearPlant):
         """:meth:`LinearPlant.coast_pieces`, and with a model that changes along the flight pieces of
         at most :data:`COAST_SEGMENT_S`."""
         pieces = super().coast_pieces(p, duration)
-        if self.flights is None:
+        if not self.time_varying:
             return pieces
         return np.maximum(pieces, np.ceil(duration / COAST_SEGMENT_S).astype(np.int64))
 
@@ -376,7 +450,8 @@ class RigidPlant(LinearPlant):
     def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         a_rad = p.a - self.kinematics
         psd = None if not self.ground_jitter_rad else self.jitter_std(p, t)[:, 0] ** 2 * self.dt
-        return moment_generator(p.a, p.b, u, self.white_noise, (a_rad, p.b), self.jitter_inputs, psd)
+        return moment_generator(p.a, p.b, self.with_bias(u), self.white_noise, (a_rad, p.b), self.jitter_inputs, psd,
+                                self._impact_psd(p, t))
 
     @property
     def jittered(self) -> bool:

@@ -11,11 +11,17 @@ from agents import LQGAgent
 from sail_env.physics import DEEP_DISH
 
 
-@pytest.mark.parametrize("start", [None, {"x": 0.2}])
-def test_lqg_commands_act_on_the_state_at_their_arrival(start):
+PLANAR_DELAYED = ("LightSail-v0", {"config": DEEP_DISH.replace(control_start_s=10.0), "light_delay": True})
+#: The 3D deep dish with a payload off its axis: the prediction must carry the constant term.
+PAYLOAD_DELAYED = ("LightSail3D-v0", {"curvature_radius_m": 4.0, "absorptivity": 0.1, "control_start_s": 10.0,
+                                      "light_delay": True, "payload_offset_m": 5e-3})
+
+
+@pytest.mark.parametrize("task, start", [(PLANAR_DELAYED, None), (PLANAR_DELAYED, {"x": 0.2}), (PAYLOAD_DELAYED, None)])
+def test_lqg_commands_act_on_the_state_at_their_arrival(task, start):
     """Also when the first commands saturate (a start 0.2 m off the beam): the filter predicts with
-    the inputs the beam can give."""
-    env = gym.make("LightSail-v0", config=DEEP_DISH.replace(control_start_s=10.0), light_delay=True)
+    the inputs the beam can give; and with a payload off the axis, with its constant torque."""
+    env = gym.make(task[0], **task[1])
     spec = env.unwrapped.episode_spec
     agent = LQGAgent(spec)
     obs, info = env.reset(seed=3, options=None if start is None else {"initial_state": start})

@@ -42,7 +42,8 @@ def _play(env, actions, **reset_kwargs):
 @pytest.mark.parametrize("env_id, kwargs", [
     ("LightSail3D-v0", {}), ("LightSail3D-v0", {"power_control": True}),
     ("LightSail3D-v0", {"absorptivity": 0.1, "light_delay": True, "control_start_s": 10.0}),
-    ("LightSail3DRealistic-v0", {}), ("LightSail3DRealistic-v0", {"power_control": True})])
+    ("LightSail3DRealistic-v0", {}), ("LightSail3DRealistic-v0", {"power_control": True}),
+    ("LightSail3D-v0", {"payload_offset_m": 1e-3, "dust_density_m3": 1e-6, "dust_grain_mass_kg": 1e-15})])
 def test_checkers_pass_without_warnings(env_id, kwargs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -143,11 +144,15 @@ def test_same_seed_same_numbers():
 NOISY = {"light_delay": True, "control_start_s": 10.0, "sensor_noise_std": (1e-4,) * 2 + (1e-2,) * 2 + (1e-5,) * 4,
          "beam_jitter_m": 1e-5, "push_noise": 0.01, "cutoff_jitter_s": 5.0, "parameter_spread": 0.1,
          "absorptivity": 0.1, "power_control": True}
+#: The payload and dust impacts often enough to kick most windows (~0.3 impacts per step).
+DUSTY = {**NOISY, "curvature_radius_m": 4.0, "payload_offset_m": 5e-3, "dust_density_m3": 5e-6,
+         "dust_grain_mass_kg": 1e-17}
+CASES = {"noisy": ("LightSail3D-v0", NOISY), "dusty": ("LightSail3D-v0", DUSTY)}
 
 
-@pytest.mark.parametrize("case", [*sorted(RIGID3D_TASKS), "noisy"])
+@pytest.mark.parametrize("case", [*sorted(RIGID3D_TASKS), *CASES])
 def test_vector_env_plays_the_single_envs_episodes(case):
-    env_id, kwargs = ("LightSail3D-v0", NOISY) if case == "noisy" else (case, {})
+    env_id, kwargs = CASES.get(case, (case, {}))
     n, steps = 3, 430  # two whole episodes and part of a third
     envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
     size = envs.single_action_space.shape[0]
@@ -217,6 +222,8 @@ def test_power_input_scales_the_radiation_terms():
     ({"ground_jitter_rad": -1e-15}, "ground_jitter_rad"), ({"diffraction_length_m": 0.0}, "diffraction_length_m"), ({"start_half_widths": (1e-3,) * 4}, "start_half_widths"),
     ({"sensor_noise_std": (1e-3,) * 4}, "sensor_noise_std"), ({"parameter_spread": 0.7}, "parameter_spread"),
     ({"beam_jitter_m": -1.0}, "beam_jitter_m"), ({"spin_rad_s": float("nan")}, "spin_rad_s"),
+    ({"payload_offset_m": -1e-3}, "payload_offset_m"), ({"payload_offset_m": 2.5}, "payload_offset_m"),
+    ({"dust_density_m3": -1.0}, "dust_density_m3"), ({"dust_grain_mass_kg": float("inf")}, "dust_grain_mass_kg"),
 ])
 def test_bad_configuration_is_one_value_error_naming_the_field(kwargs, field):
     with pytest.raises(ValueError, match=field):
@@ -335,3 +342,19 @@ def test_absorption_makes_the_tilt_controllable_and_lqr_uses_it():
         while not done:
             obs, _, done, _, info = absorbing_env.step(agent.act(obs))
         assert info["is_success"]
+
+
+def test_payload_and_dust_are_off_in_the_plain_task_and_on_in_the_realistic_one():
+    """LightSail3D-v0 has neither; LightSail3DRealistic-v0 has both, and either can be switched off."""
+    plain = gym.make("LightSail3D-v0").unwrapped.episode_spec.plant
+    assert not plain.biased and plain.impulse_rows == () and not plain.noisy
+    realistic = gym.make("LightSail3DRealistic-v0").unwrapped.episode_spec.plant
+    assert realistic.biased and realistic.impulse_rows == (2, 3, 6, 7)
+    assert realistic.config.payload_offset_m > 0 and realistic.config.dust_density_m3 > 0
+    quiet = gym.make("LightSail3DRealistic-v0", payload_offset_m=0.0, dust_density_m3=0.0).unwrapped.episode_spec.plant
+    assert not quiet.biased and quiet.impulse_rows == ()
+    # LQR and LQG act on the biased model without complaint
+    env = gym.make("LightSail3DRealistic-v0")
+    for agent in (LQRAgent(env.unwrapped.episode_spec), LQGAgent(env.unwrapped.episode_spec)):
+        obs, _ = env.reset(seed=0)
+        assert np.all(np.isfinite(agent.act(obs)))

@@ -78,13 +78,22 @@ class ScaleTable:
         self.log_scales, self.kinks = scale_grid(sail.config, top)
         parts = [cleaned(linearise(sail, beam_scale=float(math.exp(x))), sail.config.aperture_radius_m)
                  for x in self.log_scales]
-        weight = np.exp(2.0 * self.log_scales)[:, None, None]
-        self._radiation = weight * np.stack([p[0] for p in parts])
-        self._inputs = weight * np.stack([p[1] for p in parts])
+        weight = np.exp(2.0 * self.log_scales)
+        self._radiation = weight[:, None, None] * np.stack([p[0] for p in parts])
+        self._inputs = weight[:, None, None] * np.stack([p[1] for p in parts])
+        self._push = weight * np.array([sail.centred_push(1.0, float(math.exp(x))) for x in self.log_scales])
 
     def at(self, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Radiation ``A`` (k, 8, 8) and ``B`` (k, 8, 4) at scales (k,); up to ``s = 1`` the table's
         first entry, beyond never mixed with it (an edge may sit at ``s = 1``)."""
+        return self._blend(self._radiation, scale), self._blend(self._inputs, scale)
+
+    def push_at(self, scale: np.ndarray) -> np.ndarray:
+        """The centred sail's push [N] (k,) at scales (k,), interpolated as :meth:`at`."""
+        return self._blend(self._push, scale)
+
+    def _blend(self, table: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """``table`` (grid, ...) interpolated as ``s² R`` linearly in ``ln s``, divided by ``s²``."""
         log_scale = np.log(np.asarray(scale, float))
         if np.any(log_scale > math.log(max(self.top, 1.0)) + 1e-12):
             raise ValueError(f"beam scale {float(np.exp(log_scale.max()))} is beyond the table's {self.top}")
@@ -97,8 +106,7 @@ class ScaleTable:
             low = np.minimum(weight.astype(np.int64), grid.size - 2)
             index[beyond], frac[beyond] = 1 + low, weight - low
         upper = np.minimum(index + 1, self.log_scales.size - 1)
-        inverse = (1.0 / np.maximum(scale, 1.0) ** 2)[:, None, None]
-        mix = frac[:, None, None]
-        radiation = inverse * ((1 - mix) * self._radiation[index] + mix * self._radiation[upper])
-        inputs = inverse * ((1 - mix) * self._inputs[index] + mix * self._inputs[upper])
-        return radiation, inputs
+        trailing = (slice(None),) + (None,) * (table.ndim - 1)
+        inverse = (1.0 / np.maximum(scale, 1.0) ** 2)[trailing]
+        mix = frac[trailing]
+        return inverse * ((1 - mix) * table[index] + mix * table[upper])
