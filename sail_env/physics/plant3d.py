@@ -28,7 +28,7 @@ import numpy as np
 
 from sail_env.physics.config import SEED
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
-from sail_env.physics.noise import moment_generator
+from sail_env.physics.noise import moment_generator, moment_growth_rate
 from sail_env.physics.plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
@@ -204,6 +204,12 @@ class RigidPlant(LinearPlant):
         step = coeffs.reshape(len(a), -1, n + m)
         growth, freqs = mode_rates(a)
         table = envelope_table(a, b, rows=self.velocity_rows, mode_rates=(growth, freqs))
+        if self.push_noise:
+            # Only the push noise multiplies the state (parametric excitation). The spread's growth
+            # is the window model's: along the flight the radiation terms scale by at most
+            # (1 + power_control) / (power factor), far inside the margin between a piece's e^20
+            # and overflow.
+            growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise, (a - self.kinematics, b)))
         c = self.config.sail
         limits = np.tile([c.aperture_radius_m, min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)],
                          (len(a), 1))
