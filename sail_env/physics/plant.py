@@ -215,7 +215,9 @@ class LinearPlant:
                 propagator = propagators[j if self.time_varying else 0]
                 if self.noisy:
                     start = second_moment(x, np.zeros((len(x), self.n_states, self.n_states)))
-                    mean, cov = mean_and_covariance(np.einsum("kij,kj->ki", propagator, start))
+                    # matmul, not einsum: the same BLAS call per environment whatever the batch's size
+                    # and layout, so a batch plays the single environments' episodes to the last bit.
+                    mean, cov = mean_and_covariance((propagator @ start[:, :, None])[:, :, 0])
                     moved = sample_gaussian(mean, cov, normals[:, first + j])
                 else:
                     phi, drive = propagator
