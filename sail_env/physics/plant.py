@@ -17,12 +17,11 @@ from __future__ import annotations
 
 import dataclasses
 import numpy as np
-import scipy.linalg
 
 from sail_env.physics.config import SailConfig, moment_of_inertia
 from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, sample_uniform, zoh_discretize
 from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_growth_rate,
-                                    second_moment)
+                                    moment_propagator, second_moment)
 from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
                                      rates, system_matrices)
 from sail_env.physics.pointing import envelope_table, peak_speed
@@ -34,6 +33,9 @@ SPREAD_FIELDS = ("sail_mass_kg", "craft_mass_kg", "strut_length_m", "com_distanc
 #: Largest growth ``e^GROWTH_PER_PIECE`` of one piece of a long propagation: from inside the
 #: aperture an unstable sail then stays finite until the divergence test catches it.
 GROWTH_PER_PIECE = 20.0
+#: Most piece propagators a coast of a time-varying model builds in one call: k environments
+#: build ``max(1, COAST_BATCH // k)`` pieces at a time (a few MB of generators).
+COAST_BATCH = 128
 
 
 @dataclasses.dataclass
@@ -54,6 +56,13 @@ class PlantParams:
         if self.shared:
             return self
         return dataclasses.replace(self, shared=False, **{f.name: getattr(self, f.name)[index]
+                                                          for f in dataclasses.fields(self) if f.name != "shared"})
+
+    def repeat(self, count: int) -> PlantParams:
+        """Each environment's parameters ``count`` times in a row (shared parameters as they are)."""
+        if self.shared or count == 1:
+            return self
+        return dataclasses.replace(self, shared=False, **{f.name: np.repeat(getattr(self, f.name), count, axis=0)
                                                           for f in dataclasses.fields(self) if f.name != "shared"})
 
     def put(self, index: np.ndarray, other: PlantParams) -> None:
@@ -210,24 +219,31 @@ class LinearPlant:
         the flight (:meth:`_coast_params`) holds each piece's model at the piece's middle.
         Returns ``(x, diverged)``.
         """
-        n = self.n_states
         pieces = self.coast_pieces(p, duration)
         piece = duration / pieces
+        total = int(pieces.max())
         diverged = np.zeros(len(x), dtype=bool)
-        propagator = None
-        for i in range(int(pieces.max())):
-            if propagator is None or self.time_varying:
-                propagator = self._piece_propagator(p, u, start_s + (i + 0.5) * piece, piece)
-            if self.noisy:
-                start = second_moment(x, np.zeros((len(x), n, n)))
-                mean, cov = mean_and_covariance(np.einsum("kij,kj->ki", propagator, start))
-                moved = sample_gaussian(mean, cov, normals[:, i])
-            else:
-                phi, drive = propagator
-                moved = np.einsum("...ij,...j->...i", phi, x) + drive
-            active = (i < pieces) & ~diverged
-            x = np.where(active[:, None], moved, x)
-            diverged |= active & self.diverged(p, x)
+        # One propagator serves every piece of a time-invariant model; a time-varying one's are
+        # built a batch of pieces at a time (one call instead of one per piece).
+        batch = max(1, COAST_BATCH // len(x)) if self.time_varying else total
+        for first in range(0, total, batch):
+            count = min(batch, total - first)
+            offsets = first + 0.5 + np.arange(count if self.time_varying else 1)
+            propagators = self._piece_propagators(p, u, start_s[:, None] + offsets * piece[:, None], piece)
+            for j in range(count):
+                propagator = propagators[j if self.time_varying else 0]
+                if self.noisy:
+                    start = second_moment(x, np.zeros((len(x), self.n_states, self.n_states)))
+                    # matmul, not einsum: the same BLAS call per environment whatever the batch's size
+                    # and layout, so a batch plays the single environments' episodes to the last bit.
+                    mean, cov = mean_and_covariance((propagator @ start[:, :, None])[:, :, 0])
+                    moved = sample_gaussian(mean, cov, normals[:, first + j])
+                else:
+                    phi, drive = propagator
+                    moved = np.einsum("...ij,...j->...i", phi, x) + drive
+                active = (first + j < pieces) & ~diverged
+                x = np.where(active[:, None], moved, x)
+                diverged |= active & self.diverged(p, x)
         return x, diverged
 
     #: Whether :meth:`_coast_params` depends on the time (then each piece has its own model).
@@ -238,18 +254,24 @@ class LinearPlant:
         :attr:`time_varying`)."""
         return p
 
-    def _piece_propagator(self, p: PlantParams, u: np.ndarray, middle: np.ndarray,
-                          piece: np.ndarray) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-        """One piece's propagator, with the model held at its ``middle`` (the midpoint rule: second
-        order in the piece's length): of the second moments with noise, else ``(Φ, Γu)``."""
-        q = self._coast_params(p, u, middle)
+    def _piece_propagators(self, p: PlantParams, u: np.ndarray, middles: np.ndarray,
+                           piece: np.ndarray) -> list[np.ndarray | tuple[np.ndarray, np.ndarray]]:
+        """The propagators of pieces of ``piece`` (k,) seconds with the model held at their
+        ``middles`` (k, c) (the midpoint rule: second order in the piece's length), one per column:
+        of the second moments (k, h, h) with noise, else ``(Φ, Γu)``."""
+        k, count = middles.shape
+        rows = np.repeat(np.arange(k), count)  # environment-major: row r is piece r % count of r // count
+        q = self._coast_params(p.repeat(count), u[rows], middles.ravel())
         if self.noisy:
-            return scipy.linalg.expm(self._moment_generator(q, u, middle) * piece[:, None, None])
+            generator = self._moment_generator(q, u[rows], middles.ravel())
+            exp = moment_propagator(generator, piece[rows], self.start_limits())
+            return list(np.swapaxes(exp.reshape(k, count, *exp.shape[1:]), 0, 1))
         if q.shared and np.all(piece == piece[0]) and not self.biased:
             phi, gamma = self.nominal.discretize(float(piece[0]))
-        else:
-            phi, gamma = zoh_discretize(q.a, q.b, piece)
-        return phi, np.einsum("...ij,...j->...i", gamma, self.with_bias(u))
+            return [(phi, np.einsum("...ij,...j->...i", gamma, u))] * count
+        phi, gamma = zoh_discretize(q.a, q.b, piece[rows])
+        drive = np.einsum("...ij,...j->...i", gamma, self.with_bias(u)[rows])
+        return [(phi.reshape(k, count, *phi.shape[1:])[:, j], drive.reshape(k, count, -1)[:, j]) for j in range(count)]
 
 
 class PlanarPlant(LinearPlant):

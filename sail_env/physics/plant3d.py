@@ -31,7 +31,7 @@ import numpy as np
 
 from sail_env.physics.config import SEED
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
-from sail_env.physics.noise import moment_generator
+from sail_env.physics.noise import moment_generator, moment_growth_rate
 from sail_env.physics.plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
@@ -297,6 +297,12 @@ class RigidPlant(LinearPlant):
         step = coeffs.reshape(len(a), -1, n + m)
         growth, freqs = mode_rates(a)
         table = envelope_table(a, b, rows=self.velocity_rows, mode_rates=(growth, freqs))
+        if self.push_noise:
+            # Only the push noise multiplies the state (parametric excitation). The spread's growth
+            # is the window model's: along the flight the radiation terms scale by at most
+            # (1 + power_control) / (power factor), far inside the margin between a piece's e^20
+            # and overflow.
+            growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise, (a - self.kinematics, b)))
         c = self.config.sail
         limits = np.tile([c.aperture_radius_m, min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)],
                          (len(a), 1))
@@ -406,25 +412,30 @@ class RigidPlant(LinearPlant):
         return dataclasses.replace(p, a=self.kinematics + scale[:, None, None] * a_rad,
                                    b=scale[:, None, None] * p.b, shared=False)
 
-    def _piece_propagator(self, p: PlantParams, u: np.ndarray, middle: np.ndarray,
-                          piece: np.ndarray) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-        """:meth:`LinearPlant._piece_propagator`, split where a draw's spot starts widening or a hard
-        beam edge meets the rim within the piece: the model jumps there, and a piece held at its
+    def _piece_propagators(self, p: PlantParams, u: np.ndarray, middles: np.ndarray,
+                           piece: np.ndarray) -> list[np.ndarray | tuple[np.ndarray, np.ndarray]]:
+        """:meth:`LinearPlant._piece_propagators`, each piece split where a draw's spot starts widening
+        or a hard beam edge meets the rim within it: the model jumps there, and a piece held at its
         middle would take the wrong side for up to half its length."""
-        lo, hi = middle - 0.5 * piece, middle + 0.5 * piece
-        cuts = self._kink_times(p, lo, hi)
-        if cuts is None:
-            return super()._piece_propagator(p, u, middle, piece)
-        total = None
-        for start, end in zip([lo, *cuts], [*cuts, hi]):
-            part = super()._piece_propagator(p, u, 0.5 * (start + end), end - start)
-            if total is None:
-                total = part
-            elif self.noisy:
-                total = np.matmul(part, total)
-            else:
-                total = (np.matmul(part[0], total[0]), np.einsum("...ij,...j->...i", part[0], total[1]) + part[1])
-        return total
+        propagators = super()._piece_propagators(p, u, middles, piece)
+        if self.scales is None or not self.scales.kinks:
+            return propagators
+        for j in range(middles.shape[1]):
+            lo, hi = middles[:, j] - 0.5 * piece, middles[:, j] + 0.5 * piece
+            cuts = self._kink_times(p, lo, hi)
+            if cuts is None:
+                continue
+            total = None
+            for start, end in zip([lo, *cuts], [*cuts, hi]):
+                part = super()._piece_propagators(p, u, (0.5 * (start + end))[:, None], end - start)[0]
+                if total is None:
+                    total = part
+                elif self.noisy:
+                    total = np.matmul(part, total)
+                else:
+                    total = (np.matmul(part[0], total[0]), np.einsum("...ij,...j->...i", part[0], total[1]) + part[1])
+            propagators[j] = total
+        return propagators
 
     def _kink_times(self, p: PlantParams, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray] | None:
         """Times (k,) in ``[lo, hi]`` at which each draw's spot reaches a scale where ``A`` jumps

@@ -250,6 +250,25 @@ def test_divergence_beyond_the_aperture_terminates_cleanly():
     assert info["diverged"] and not info["is_success"] and info["terminal_pointing_rad"] == np.inf
 
 
+def test_strong_push_noise_on_the_deep_dish_ends_cleanly():
+    """The spread grows as e^{1.06 t} (parametric excitation): over the coast in one piece the moments
+    overflowed (``LinAlgError``); in pieces of e^20 the sail leaves the beam and the episode is scored
+    as diverged, every observation finite and no floating-point warning."""
+    from sail_env.physics.config import DEEP_DISH
+
+    env = gym.make("LightSail3D-v0", push_noise=0.25, curvature_radius_m=DEEP_DISH.curvature_radius_m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for seed in range(3):
+            obs, _ = env.reset(seed=seed)
+            done = False
+            while not done:
+                obs, reward, terminated, truncated, info = env.step(np.zeros(4, dtype=np.float32))
+                done = terminated or truncated
+                assert np.all(np.isfinite(obs)) and np.isfinite(reward)
+            assert info["diverged"] and info["terminal_pointing_rad"] == np.inf and not info["is_success"]
+
+
 def test_a_passive_episode_takes_well_under_a_second():
     env = gym.make("LightSail3D-v0")
     env.reset(seed=0)

@@ -120,7 +120,7 @@ def test_coast_second_moments_match_a_monte_carlo_of_the_impacts():
     second = second_moment(np.zeros((1, 8)), np.zeros((1, 8, 8)))
     for i in range(pieces):
         middle = np.array([start + (i + 0.5) * piece])
-        second = np.einsum("kij,kj->ki", plant._piece_propagator(p, u, middle, np.array([piece])), second)
+        second = np.einsum("kij,kj->ki", plant._piece_propagators(p, u, middle[:, None], np.array([piece]))[0], second)
     _, covariance = mean_and_covariance(second)
 
     rng = np.random.default_rng(1)

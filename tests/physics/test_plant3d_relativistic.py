@@ -92,3 +92,32 @@ def test_shared_model_steps_as_a_draw_of_nominal_factors():
     shared = plant.params(np.ones((1, 3)))
     drawn = plant._build(np.ones((1, 3)), shared=False)
     np.testing.assert_allclose(shared.step, drawn.step, rtol=1e-12, atol=1e-12 * np.abs(drawn.step).max())
+
+
+@pytest.mark.parametrize("noisy", [False, True])
+def test_coast_builds_its_pieces_in_batches_of_any_size(monkeypatch, noisy):
+    """The pieces' propagators are built :data:`~sail_env.physics.plant.COAST_BATCH` at a time: batches
+    of 7 (cut mid-coast, different per environment) give the coast of one batch for all 118 pieces."""
+    from sail_env.envs.rigid3d import rigid3d_spec
+    from sail_env.physics import plant as plant_module
+    from sail_env.tasks import TASKS
+
+    kwargs = dict(TASKS["LightSail3DRealistic-v0"])
+    if not noisy:
+        kwargs.update(ground_jitter_rad=0.0, push_noise=0.0, dust_density_m3=0.0)
+    plant = rigid3d_spec(**kwargs).plant
+    assert plant.time_varying and plant.noisy == noisy
+    rng = np.random.default_rng(2)
+    k = 3
+    p = plant.params(np.stack([plant.draw(rng) for _ in range(k)]))
+    x = rng.uniform(-1e-3, 1e-3, (k, 8)) * plant.start_limits()
+    u = rng.uniform(-1, 1, (k, 4)) * 1e-6
+    duration, start = np.array([589.0, 583.0, 594.0]), np.full(k, 11.0)
+    normals = rng.standard_normal((k, 119, 8))
+    monkeypatch.setattr(plant_module, "COAST_BATCH", 119 * k)
+    one_batch, diverged = plant.coast(p, x, u, duration, normals, start)
+    monkeypatch.setattr(plant_module, "COAST_BATCH", 7 * k)
+    batches, diverged_too = plant.coast(p, x, u, duration, normals, start)
+    np.testing.assert_allclose(batches, one_batch, rtol=1e-12, atol=0)
+    assert not diverged.any() and not diverged_too.any()
+    assert plant.coast_pieces(p, duration).tolist() == [118, 117, 119]
