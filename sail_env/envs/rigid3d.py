@@ -23,7 +23,7 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
                  relativistic: bool = False, ground_jitter_rad: float = 0.0, diffraction_length_m: float = math.inf,
                  payload_offset_m: float = 0.0, dust_density_m3: float = 0.0, dust_grain_mass_kg: float = 0.0,
-                 power_control: bool | float = False,
+                 velocity_terms: bool = False, power_control: bool | float = False,
                  control_start_s: float = SEED.control_start_s, max_beam_offset_m: float = 0.02,
                  max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
                  sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
@@ -48,7 +48,7 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                          relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
                          diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
                          dust_density_m3=dust_density_m3, dust_grain_mass_kg=dust_grain_mass_kg,
-                         control_start_s=control_start_s)
+                         velocity_terms=velocity_terms, control_start_s=control_start_s)
     return EpisodeSpec(flight, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
                        start_half_widths=start_half_widths,
                        disturbances=Disturbances(sensor_noise_std=sensor_noise_std, beam_jitter_m=beam_jitter_m,
@@ -146,6 +146,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``diffraction_length_m`` | inf | ``L0``: beyond it the spot widens as ``D/L0`` and its intensity falls as ``(L0/D)²`` (see below) |
     | ``payload_offset_m`` | 0 | payload's distance from the sail axis (along x): a constant torque ``F e m_craft/m`` (≤ ``a``) |
     | ``dust_density_m3``, ``dust_grain_mass_kg`` | 0, 0 | dust grains swept up at the sail's speed: random kicks of the tilt rates and lateral speeds (both > 0 to switch on) |
+    | ``velocity_terms`` | False | the radiation forces' v/c terms (Doppler, aberration): a weak passive damping |
     | ``control_start_s`` | 0 | flight time at which control starts |
     | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 |
     | ``start_half_widths`` | see above | 8 half-widths in state order |

@@ -37,7 +37,8 @@ from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights
-from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation, linearise
+from sail_env.physics.rigid3d.damping import damped_linearisation
+from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation
 from sail_env.physics.rigid3d.scales import ScaleTable
 
 #: The factors a parameter spread draws, in draw order (one uniform factor each).
@@ -80,6 +81,9 @@ class RigidFlight:
             (0: no impacts; docs/physics.md §15).
         dust_grain_mass_kg: Mass of one grain [kg]: each impact kicks the tilt rates and the
             lateral velocity at random (a compound Poisson process).
+        velocity_terms: The radiation forces' terms of order v/c (Doppler and aberration,
+            :mod:`~sail_env.physics.rigid3d.damping`; docs/physics.md §13): the only passive
+            damping a mirror has, of order 1e-3 e-folds over a flight.
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
             :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
     """
@@ -93,6 +97,7 @@ class RigidFlight:
     payload_offset_m: float = 0.0
     dust_density_m3: float = 0.0
     dust_grain_mass_kg: float = 0.0
+    velocity_terms: bool = False
     beam_cutoff_s: float = SEED.beam_cutoff_s
     control_step_s: float = SEED.control_step_s
     control_window_s: float = SEED.control_window_s
@@ -101,13 +106,14 @@ class RigidFlight:
     def __post_init__(self) -> None:
         if not isinstance(self.sail, RigidSailConfig):
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
-        if not isinstance(self.relativistic, bool):
-            raise ValueError(f"relativistic must be a bool, got {self.relativistic!r}")
+        for name in ("relativistic", "velocity_terms"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name} must be a bool, got {getattr(self, name)!r}")
         length = self.diffraction_length_m
         if isinstance(length, bool) or not isinstance(length, (int, float)) or not length > 0:
             raise ValueError(f"diffraction_length_m must be > 0 (inf: no diffraction), got {length!r}")
         for field in dataclasses.fields(self)[1:]:
-            if field.name in ("relativistic", "diffraction_length_m"):
+            if field.name in ("relativistic", "velocity_terms", "diffraction_length_m"):
                 continue
             value = getattr(self, field.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -188,7 +194,8 @@ class RigidPlant(LinearPlant):
                  push_noise: float = 0.0) -> None:
         self.config = flight
         self.sail = RigidSail(flight.sail)
-        self.linearisation = lin = linearise(self.sail, spin=flight.spin_rad_s)
+        self.linearisation = lin = damped_linearisation(self.sail, spin=flight.spin_rad_s,
+                                                        velocity_terms=flight.velocity_terms)
         power = flight.power_control > 0
         self.input_names = INPUT_NAMES + (("beam_power",) if power else ())
         self.input_units = ("m", "m", "rad", "rad") + (("1",) if power else ())
@@ -220,7 +227,8 @@ class RigidPlant(LinearPlant):
             if self.diffracting:
                 # A draw's spot is D̃(r t)/(r L0) (DrawFlights): bounded by the farthest node over the slowest draw.
                 farthest = max(float(f.distance(f.duration_s)) for f in self.flights.flights)
-                self.scales = ScaleTable(self.sail, farthest * fastest / flight.diffraction_length_m)
+                self.scales = ScaleTable(self.sail, farthest * fastest / flight.diffraction_length_m,
+                                         flight.velocity_terms)
         # The impacts' rate and size grow with the sail's speed: the coast holds them piecewise too.
         self.time_varying = self.flights is not None or dusty
         self.flight = None if self.flights is None else self.flights.nominal

@@ -15,7 +15,9 @@ import sail_env  # noqa: F401  (registers the ids)
 from agents import LQGAgent, LQRAgent, PassiveAgent
 from sail_env.core import EpisodeCore
 from sail_env.physics import SEED, PlanarModel
+from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.linear import LinearModel, mode_rates
+from sail_env.physics.rigid3d.damping import mode_damping_rates
 from sail_env.tasks import RIGID3D_TASKS
 
 #: The planar axis inside the 3D state: (X, Vx, θ, ω) = (x, vx, θy, ωy); inputs (d, ψ) = (d_x, ψ_x).
@@ -377,3 +379,19 @@ def test_payload_and_dust_are_off_in_the_plain_task_and_on_in_the_realistic_one(
     for agent in (LQRAgent(env.unwrapped.episode_spec), LQGAgent(env.unwrapped.episode_spec)):
         obs, _ = env.reset(seed=0)
         assert np.all(np.isfinite(agent.act(obs)))
+
+
+def test_velocity_terms_keyword_damps_the_lateral_mode_at_the_closed_form_rate():
+    """``velocity_terms=True``: at the seed point (R = Lc) the lateral mode is x alone and the v/c
+    terms damp it at ``ρ (P/c)(a²/R²)/(2 m c)`` (docs/physics.md §13); off, it is undamped."""
+    plant = gym.make("LightSail3D-v0", velocity_terms=True).unwrapped.episode_spec.plant
+    c = plant.sail.config
+    rate = (c.beam_power_w / SPEED_OF_LIGHT) * (c.aperture_radius_m / c.curvature_radius_m) ** 2 / (
+        2.0 * plant.sail.mass * SPEED_OF_LIGHT)
+    frequencies, decay = mode_damping_rates(plant.nominal.A)
+    lateral = int(np.argmin(np.abs(frequencies - 70.0)))
+    assert decay[lateral] == pytest.approx(rate, rel=0.02)
+    static = gym.make("LightSail3D-v0").unwrapped.episode_spec.plant
+    assert np.abs(mode_damping_rates(static.nominal.A)[1]).max() < 1e-3 * rate
+    with pytest.raises(ValueError, match="velocity_terms must be a bool"):
+        gym.make("LightSail3D-v0", velocity_terms=1)

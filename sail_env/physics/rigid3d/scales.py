@@ -19,7 +19,8 @@ import numpy as np
 
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
-from sail_env.physics.rigid3d.linearise import Linearisation, linearise
+from sail_env.physics.rigid3d.damping import damped_linearisation
+from sail_env.physics.rigid3d.linearise import Linearisation
 
 #: Entries of the radiation part of ``A`` and ``B`` below this fraction of their natural
 #: scale (push/(m a), push/m, push Lc/(I a), push Lc/I) are central-difference round-off
@@ -66,18 +67,20 @@ def scale_grid(config: RigidSailConfig, top: float) -> tuple[np.ndarray, list[fl
 
 class ScaleTable:
     """Radiation part of ``A`` (8, 8) and ``B`` (8, 4) of the centred sail at the configured power,
-    no Doppler factor, for spots widened by ``1 ≤ s ≤ top`` (cleaned of round-off, :func:`cleaned`).
+    no Doppler factor, for spots widened by ``1 ≤ s ≤ top`` (cleaned of round-off, :func:`cleaned`;
+    with ``velocity_terms`` the v/c terms of :mod:`.damping` included).
 
     Attributes:
         top: The largest scale it serves (the last grid point is :data:`EDGE_CLEARANCE` below it).
         log_scales: The grid (:func:`scale_grid`); ``kinks``: the ``ln s`` where pieces start.
     """
 
-    def __init__(self, sail: RigidSail, top: float) -> None:
+    def __init__(self, sail: RigidSail, top: float, velocity_terms: bool = False) -> None:
         self.top = top
         self.log_scales, self.kinks = scale_grid(sail.config, top)
-        parts = [cleaned(linearise(sail, beam_scale=float(math.exp(x))), sail.config.aperture_radius_m)
-                 for x in self.log_scales]
+        lins = [damped_linearisation(sail, beam_scale=float(math.exp(x)), velocity_terms=velocity_terms)
+                for x in self.log_scales]
+        parts = [cleaned(lin, sail.config.aperture_radius_m) for lin in lins]
         weight = np.exp(2.0 * self.log_scales)
         self._radiation = weight[:, None, None] * np.stack([p[0] for p in parts])
         self._inputs = weight[:, None, None] * np.stack([p[1] for p in parts])
