@@ -33,9 +33,13 @@ def test_noise_free_episodes_are_those_of_v0_1_0(case):
             done = terminated or truncated
             if len(rewards) == 7:
                 np.testing.assert_array_equal(obs, recorded["obs_7"])
-        np.testing.assert_allclose(rewards, recorded["rewards"], rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(rewards[:-1], recorded["rewards"][:-1], rtol=1e-12, atol=1e-15)
         np.testing.assert_array_equal(obs, recorded["last_obs"])
+        # The last reward holds the score, log10 of the pointing after the coast: the exponential of
+        # its ~40,000 rad of phase amplifies round-off, which differs between CPUs' BLAS kernels
+        # (1e-11 of the pointing between the recording's machine and an AMD EPYC).
         assert info["terminal_pointing_rad"] == pytest.approx(recorded["pointing"], rel=1e-9)
+        assert rewards[-1] == pytest.approx(recorded["rewards"][-1], abs=1e-9)
         assert info["is_success"] == recorded["success"] and info["diverged"] == recorded["diverged"]
 
 
