@@ -280,21 +280,24 @@ class EpisodeCore:
 
     def observe(self, index: np.ndarray | None = None) -> np.ndarray:
         """Observations (k, D) of environments ``index`` (default all) at their current step."""
-        spec = self.spec
+        spec, n = self.spec, self.spec.plant.n_states
+        step = self.step_index if index is None else self.step_index[index]
         index = self._rows if index is None else index
-        step = self.step_index[index]
         if self.delayed:
             shown = np.maximum(step - take(self.delay, index, step) + self.lag0[index], 0)
             measured = take(self.states, index, shown % self.states.shape[1])
         else:
-            measured = self.x[index]
+            measured = self.x if index is self._rows else self.x[index]
         if self.sensor is not None:
             measured = measured + spec.sensor_noise_std * take(self.sensor, index, step)
-        parts = [measured / spec.state_scale, (2.0 * step / spec.n_steps - 1.0)[:, None]]
+        # One buffer filled in place: the parts' concatenation and a gather of every row cost a
+        # tenth of the step at N = 1024.
+        obs = np.empty((len(step), spec.observation_size))
+        np.divide(measured, spec.state_scale, out=obs[:, :n])
+        obs[:, n] = 2.0 * step / spec.n_steps - 1.0
         if spec.history_length:
             sent = step[:, None] - 1 - np.arange(spec.history_length)
             recent = take(self.commands, index[:, None], sent % self.commands.shape[1])
-            recent = np.where((sent >= 0)[..., None], recent / spec.action_scale, 0.0)
-            parts.append(recent.reshape(len(step), -1))
-        obs = np.concatenate(parts, axis=1)
-        return np.minimum(np.maximum(obs, -OBSERVATION_LIMIT), OBSERVATION_LIMIT).astype(np.float32)
+            obs[:, n + 1:] = np.where((sent >= 0)[..., None], recent / spec.action_scale, 0.0).reshape(len(step), -1)
+        np.maximum(obs, -OBSERVATION_LIMIT, out=obs)
+        return np.minimum(obs, OBSERVATION_LIMIT, out=obs).astype(np.float32)
