@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -22,6 +20,7 @@ import time
 from pathlib import Path
 
 from agents.sb3 import versions
+from sail_env.provenance import machine
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "first_command.json"
@@ -56,8 +55,7 @@ def main(argv: list[str] | None = None) -> int:
              "runs/latest/best_model.zip", "--no-progress-bar"], work)
         report = json.loads((work / "reports" / "LightSail-v0" / "report.json").read_text())
     ppo = next(summary for name, summary in report["agents"].items() if name.startswith("ppo"))
-    result = {"date": time.strftime("%Y-%m-%d"), "machine": {"cpus": os.cpu_count(), "processor": platform.processor(),
-                                                             "system": platform.platform()},
+    result = {"date": time.strftime("%Y-%m-%d"), "machine": machine(),
               "versions": versions(), "seconds": {k: round(v, 1) for k, v in steps.items()},
               "train_and_evaluate_s": round(steps["python train.py --algo ppo"] + steps["python evaluate.py …"], 1),
               "ppo_success_rate": ppo["success_rate"], "ppo_median_pointing_rad": ppo["terminal_pointing_rad"]["median"],

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import time
 from pathlib import Path
 
@@ -27,6 +25,7 @@ from gymnasium.envs.classic_control.cartpole import CartPoleVectorEnv
 import sail_env  # noqa: F401
 from agents.sb3 import algo_kwargs, load_hyperparams, one_thread_per_process, versions
 from agents.training import make_env
+from sail_env.provenance import machine
 from sail_env.tasks import TASKS
 
 
@@ -82,7 +81,7 @@ def main() -> None:
     args = parser.parse_args()
     one_thread_per_process()
     single_steps, vector_steps, ppo_steps = (2_000, 20, 4_096) if args.quick else (40_000, 400, 40_960)
-    result = {"machine": {"cpus": os.cpu_count(), "processor": platform.processor() or platform.machine()},
+    result = {"machine": machine(),
               "versions": versions(), "single": {}, "vector": {}, "ppo": {}}
 
     peers = {name: single_rate(name, single_steps) for name in ("CartPole-v1", "Pendulum-v1")}
