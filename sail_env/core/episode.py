@@ -203,7 +203,7 @@ class EpisodeCore:
     def step(self, action: np.ndarray) -> StepResult:
         """Advance every environment by one control step with ``action`` (N, m) in [-1, 1] (clipped)."""
         spec, plant = self.spec, self.spec.plant
-        command = np.clip(action, -1.0, 1.0) * spec.action_scale
+        command = np.minimum(np.maximum(action, -1.0), 1.0) * spec.action_scale  # np.clip: 3× the overhead
         rows, step = self._rows, self.step_index
         if self.delayed:
             self.commands[rows, step % self.commands.shape[1]] = command

@@ -28,6 +28,8 @@ from sail_env.physics.pointing import envelope_table, peak_speed
 
 #: The sail has left the small-angle regime the model is valid in.
 MAX_TILT_RAD = 0.05
+#: The states :meth:`PlanarPlant.diverged` bounds (an array: a list index is converted at every step).
+LIMITED_STATES = np.array([X, THETA])
 #: The parameters a spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("sail_mass_kg", "craft_mass_kg", "strut_length_m", "com_distance_m", "curvature_radius_m")
 #: Largest growth ``e^GROWTH_PER_PIECE`` of one piece of a long propagation: from inside the
@@ -348,7 +350,7 @@ class PlanarPlant(LinearPlant):
     def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
         """The sail has left the beam (``|X|`` or ``|Lc θ|`` beyond the aperture) or the small-angle
         regime; NaN counts as left."""
-        inside = np.abs(x[:, [X, THETA]]) <= p.limits
+        inside = np.abs(x[:, LIMITED_STATES]) <= p.limits
         return ~(inside[:, 0] & inside[:, 1])
 
     @property
