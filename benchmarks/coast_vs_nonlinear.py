@@ -27,6 +27,7 @@ import scipy.integrate
 from sail_env.physics.config import DEEP_DISH
 from sail_env.physics.plant3d import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, state_from_small
+from sail_env.physics.rigid3d.config import BEAM_PROFILES
 from sail_env.physics.rigid3d.body import small_state
 
 #: A start typical of the window's end: offsets and speeds of a sail the controller left on the beam.
@@ -47,11 +48,13 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
                         help="surface quadrature nodes (both models)")
     parser.add_argument("--rtol", type=float, default=1e-9)
     parser.add_argument("--every", type=float, default=10.0, help="compare every N seconds of flight (and at cut-off)")
+    parser.add_argument("--beam-profile", default="flat-top", choices=BEAM_PROFILES,
+                        help="the beam (its radius the aperture's); a Gaussian's force is smooth at zero offset")
     args = parser.parse_args(argv)
 
     # LightSail3DRealistic-v0's sail and flight (its noise aside).
     sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9,
-                           radial_nodes=args.mesh[0], angular_nodes=args.mesh[1])
+                           beam_profile=args.beam_profile, radial_nodes=args.mesh[0], angular_nodes=args.mesh[1])
     spin = 1.0
     plant = RigidPlant(RigidFlight(sail, spin_rad_s=spin, relativistic=True, control_start_s=10.0))
     params = plant.params(np.ones((1, plant.n_factors)))
@@ -70,7 +73,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     grid = np.append(np.arange(args.start, cutoff, SAMPLE_S), cutoff)
     kept = 0
     times, speeds = np.empty(0), np.empty(0)
-    print(f"coast from {args.start:g} s to {cutoff:g} s, mesh {args.mesh[0]}×{args.mesh[1]}, relativistic, "
+    print(f"coast from {args.start:g} s to {cutoff:g} s, {args.beam_profile} beam, mesh {args.mesh[0]}×{args.mesh[1]}, relativistic, "
           f"spin {spin} rad/s, DOP853 rtol {args.rtol:g}; |ΔV⊥| against the largest |V⊥| so far (the amplitude: "
           f"V⊥ at one time depends on the oscillation's phase); amplitudes over the last 0.2 s (nonlinear) and "
           f"the reward's envelope ahead (linear)", flush=True)
