@@ -26,8 +26,7 @@ import scipy.integrate
 
 from sail_env.physics.config import DEEP_DISH
 from sail_env.physics.plant3d import RigidFlight, RigidPlant
-from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, state_from_small
-from sail_env.physics.rigid3d.config import BEAM_PROFILES
+from sail_env.physics.rigid3d import BEAM_PROFILES, RigidSail, RigidSailConfig, state_from_small
 from sail_env.physics.rigid3d.body import small_state
 
 #: A start typical of the window's end: offsets and speeds of a sail the controller left on the beam.
@@ -70,9 +69,9 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
                                     rtol=args.rtol, atol=args.rtol * STATE_SCALES)
     checkpoints = [*np.arange(args.start + args.every, cutoff - 1e-9, args.every), cutoff]
     # |V⊥| every SAMPLE_S from the solver's dense output (its own steps are too sparse for the amplitudes).
-    grid = np.append(np.arange(args.start, cutoff, SAMPLE_S), cutoff)
+    times = np.append(np.arange(args.start, cutoff, SAMPLE_S), cutoff)
+    speeds = np.empty_like(times)
     kept = 0
-    times, speeds = np.empty(0), np.empty(0)
     print(f"coast from {args.start:g} s to {cutoff:g} s, {args.beam_profile} beam, mesh {args.mesh[0]}×{args.mesh[1]}, relativistic, "
           f"spin {spin} rad/s, DOP853 rtol {args.rtol:g}; |ΔV⊥| against the largest |V⊥| so far (the amplitude: "
           f"V⊥ at one time depends on the oscillation's phase); amplitudes over the last 0.2 s (nonlinear) and "
@@ -83,16 +82,15 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
         if solver.step() is not None:
             raise RuntimeError(f"the nonlinear integration failed at {solver.t} s: {solver.status}")
         dense = solver.dense_output()
-        upto = int(np.searchsorted(grid, solver.t, side="right"))
-        times = np.append(times, grid[kept:upto])
-        speeds = np.append(speeds, np.hypot(*small_state(dense(grid[kept:upto]).T)[:, 2:4].T))
+        upto = int(np.searchsorted(times, solver.t, side="right"))
+        speeds[kept:upto] = np.hypot(*small_state(dense(times[kept:upto]).T)[:, 2:4].T)
         kept = upto
         while checkpoints and checkpoints[0] <= solver.t:
             t = checkpoints.pop(0)
             linear, _ = plant.coast(params, x0, held, np.array([t - args.start]), None, np.array([args.start]))
             v_lin, v_non = linear[0, 2:4], small_state(dense(t)[None])[0, 2:4]
-            amplitude = float(np.max(speeds[times <= t]))
-            end_amplitude = float(np.max(speeds[(times <= t) & (times >= t - 0.2)]))
+            amplitude = float(np.max(speeds[:kept][times[:kept] <= t]))
+            end_amplitude = float(np.max(speeds[:kept][(times[:kept] <= t) & (times[:kept] >= t - 0.2)]))
             ratio = float(plant.peak_speed(params, linear, held)[0]) / end_amplitude
             vz = plant.speed(params, np.array([t]))[0]
             result = {"time_s": t, "relative_velocity_error": float(np.hypot(*(v_lin - v_non)) / amplitude),
