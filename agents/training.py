@@ -313,7 +313,7 @@ def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = Fa
         model = build_model(config, train_env, run_dir, resume_from)
         callbacks: list[BaseCallback] = []
         if config["save_freq"] > 0:
-            callbacks.append(CheckpointCallback(max(config["save_freq"] // n_envs, 1), str(run_dir / "checkpoints"),
+            callbacks.append(UninterruptedCheckpoints(max(config["save_freq"] // n_envs, 1), str(run_dir / "checkpoints"),
                                                 CHECKPOINT_PREFIX, save_replay_buffer=True, save_vecnormalize=True))
         if config["eval_freq"] > 0:
             eval_env.seed(seed + EVAL_SEED_OFFSET)
@@ -390,6 +390,25 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+#: Set while a checkpoint is written; a signal then only records itself (see :func:`stop_on_signals`).
+_saving = {"active": False, "pending": None}
+
+
+class UninterruptedCheckpoints(CheckpointCallback):
+    """SB3's checkpoints, each written whole: a Ctrl-C or SIGTERM that arrives during the write is
+    raised after it (raised inside, it broke torch's zip writer and the run ended with an error)."""
+
+    def _on_step(self) -> bool:
+        _saving["active"] = True
+        try:
+            return super()._on_step()
+        finally:
+            _saving["active"] = False
+            pending, _saving["pending"] = _saving["pending"], None
+            if pending is not None:
+                raise KeyboardInterrupt(pending)
+
+
 def stop_on_signals() -> None:
     """SIGINT and SIGTERM (a scheduler's pre-emption) both save a checkpoint and stop.
 
@@ -397,6 +416,9 @@ def stop_on_signals() -> None:
     then never raises KeyboardInterrupt: restore it explicitly.
     """
     def interrupt(signum: int, frame: object) -> None:
+        if _saving["active"]:
+            _saving["pending"] = signal.Signals(signum).name
+            return
         raise KeyboardInterrupt(signal.Signals(signum).name)
 
     for signum in (signal.SIGINT, signal.SIGTERM):

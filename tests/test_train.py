@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -172,3 +174,33 @@ def test_resume_without_a_checkpoint_is_a_one_line_error(tmp_path: Path, capsys:
     assert train.main(["--resume", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert "no complete checkpoint to resume from" in err and "\n" not in err
+
+
+def test_a_signal_during_a_checkpoint_write_is_raised_after_it(tmp_path: Path) -> None:
+    """Raised inside torch's zip writer, a Ctrl-C broke the checkpoint and ended the run with an error."""
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from agents.training import UninterruptedCheckpoints, stop_on_signals
+
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    stop_on_signals()
+    try:
+        model = PPO("MlpPolicy", make_vec_env("Pendulum-v1", n_envs=1), n_steps=64, batch_size=64)
+        callback = UninterruptedCheckpoints(1, str(tmp_path))
+        callback.init_callback(model)
+        saved = []
+        real_save = model.save
+
+        def save_with_a_signal(path, *args, **kwargs):
+            os.kill(os.getpid(), signal.SIGTERM)  # arrives mid-write
+            real_save(path, *args, **kwargs)
+            saved.append(Path(path))
+
+        model.save = save_with_a_signal
+        with pytest.raises(KeyboardInterrupt, match="SIGTERM"):
+            callback.on_step()
+        assert saved and zipfile.is_zipfile(saved[0])
+        PPO.load(saved[0])
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
