@@ -119,6 +119,16 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     design on: the nominal model, the step, the scales and the light-delay rule. The episode
     itself runs in :class:`~sail_env.core.EpisodeCore`, the same code as
     :class:`~sail_env.envs.vector.LightSailVectorEnv` with one environment.
+
+    ## Version History
+
+    * v0 (lightsail-gym 0.2.0): the end state of a noisy coast (and of the pre-control flight) is
+      drawn with the symmetric square root of its correlation matrix instead of ``V √Λ`` from an
+      eigen-decomposition, whose eigenvector signs depended on the LAPACK driver and the CPU's BLAS
+      kernel (docs/physics.md §3). Episodes with beam jitter or push noise over the coast
+      (``LightSailRealistic-v0``) draw other end states for the same seed, from the same
+      distribution; noise-free episodes are unchanged to the last bit.
+    * v0 (lightsail-gym 0.1.0): initial release.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -156,7 +156,7 @@ class LightSail3DEnv(LightSailEnv):
     ``info["state"]`` holds the true state in SI by name and ``info["t"]`` the flight
     time; the control step is ``env.unwrapped.dt``. With ``relativistic=True`` the axial flight
     follows ``d(γβ)/dt ∝ (1−β)/(1+β)`` (docs/physics.md §14): every radiation term, push and
-    stiffnesses, falls by that power factor along the flight (to 0.73 at the realistic task's
+    stiffnesses, falls by that power factor along the flight (to 0.75 at the realistic task's
     600 s cut-off), the window holds the factor at its middle, the coast holds it piecewise
     over pieces of at most 5 s, and ``Vz`` in the pointing comes from the same law. With a finite
     ``diffraction_length_m`` the spot the sail sees beyond ``L0`` is the beam's profile widened by

@@ -4,7 +4,8 @@
 * :func:`push_expansion`: the same step when the push is scaled by ``1 + ε``, as a
   polynomial in ``ε`` whose coefficients are computed once (for the per-step push noise).
 * :func:`sample_gaussian`: draws from ``N(mean, cov)`` that stay correct when the
-  covariance is huge, badly scaled or singular; :func:`sample_uniform`.
+  covariance is huge, badly scaled or singular, and do not depend on the eigensolver
+  (:func:`symmetric_root`); :func:`sample_uniform`.
 * :class:`LinearModel`: one time-invariant ``ẋ = A x + B u`` with its cached exact steps and
   controllable subspace (the planar and the 3D models both are one).
 """
@@ -126,20 +127,37 @@ def push_expansion(a: np.ndarray, b: np.ndarray, a_push: np.ndarray, b_push: np.
 
 
 def sample_gaussian(mean: np.ndarray, cov: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """``mean + L ξ`` with ``L Lᵀ = cov`` for standard normals ``ξ`` (batched over leading axes).
+    """``mean + std · C^½ ξ`` for standard normals ``ξ`` (batched over leading axes): a draw from
+    ``N(mean, cov)`` that is a continuous function of the covariance.
 
-    The covariance is first scaled to a correlation matrix by its diagonal, so the
-    symmetric eigensolver sees entries of order one whatever the physical scales
-    (a coast of minutes can leave variances of 1e-20 m² beside 1e+10 (m/s)²); a
-    component with zero variance stays exactly at its mean. Negative eigenvalues from
-    round-off are set to zero (the covariance is positive semi-definite).
+    The covariance is first scaled to its correlation matrix ``C`` by its diagonal, so the
+    eigensolver sees entries of order one whatever the physical scales (a coast of minutes can
+    leave variances of 1e-20 m² beside 1e+10 (m/s)²); a component with zero variance stays
+    exactly at its mean. ``C^½`` is :func:`symmetric_root`: unlike ``V √Λ`` it does not depend on
+    the signs and rotations the eigensolver picks for its eigenvectors, which differ between
+    LAPACK drivers and CPU kernels, so a seed draws the same state on every machine (to round-off;
+    docs/physics.md §3).
     """
     std = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0.0, None))
     safe = np.where(std > 0, std, 1.0)
     corr = cov / (safe[..., :, None] * safe[..., None, :])
-    eigval, eigvec = np.linalg.eigh(corr)
-    root = eigvec * np.sqrt(np.clip(eigval, 0.0, None))[..., None, :]
-    return mean + std * np.einsum("...ij,...j->...i", root, normals)
+    root = symmetric_root(corr)
+    return mean + std * (root @ normals[..., None])[..., 0]
+
+
+def symmetric_root(matrix: np.ndarray) -> np.ndarray:
+    """The unique symmetric positive semi-definite square root ``V √Λ Vᵀ`` of symmetric matrices
+    (..., n, n); negative eigenvalues from round-off count as zero.
+
+    It is a function of the matrix alone (any orthonormal basis of an eigenspace gives the same
+    product) and continuous: ``‖A^½ − B^½‖ ≤ ‖A − B‖^½`` for positive semi-definite ``A, B``, and
+    Lipschitz where ``A`` is positive definite. The input is symmetrised first, so no solver's
+    choice of triangle matters either.
+    """
+    symmetric = 0.5 * (matrix + np.swapaxes(matrix, -1, -2))
+    eigval, eigvec = np.linalg.eigh(symmetric)
+    scaled = eigvec * np.sqrt(np.clip(eigval, 0.0, None))[..., None, :]
+    return scaled @ np.swapaxes(eigvec, -1, -2)
 
 
 def sample_uniform(rng: np.random.Generator, low: np.ndarray | float, high: np.ndarray | float,

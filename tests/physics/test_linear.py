@@ -5,7 +5,8 @@ import pytest
 import scipy.linalg
 
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel
-from sail_env.physics.linear import push_expansion, sample_gaussian, zoh_discretize
+from sail_env.physics import linear
+from sail_env.physics.linear import push_expansion, sample_gaussian, symmetric_root, zoh_discretize
 from sail_env.physics.planar import push_sensitivity, rates, system_matrices
 from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise
 
@@ -68,6 +69,79 @@ def test_sampling_a_rank_one_covariance_of_huge_size():
     offset = draw - 1.0
     direction = offset / offset[np.argmax(np.abs(offset))]
     np.testing.assert_allclose(direction, v / v[0], rtol=1e-9)
+
+
+def _covariances(rng: np.random.Generator, count: int, rank: int | None) -> list[np.ndarray]:
+    """Random covariances of 8 states, half with the 3D task's structure (two identical lateral
+    axes: every eigenvalue double, the eigensolver free to rotate inside each eigenspace), half
+    without; of full rank or of ``rank`` (singular); components scaled over 24 orders."""
+    out = []
+    for k in range(count):
+        if k % 2:
+            factor = rng.standard_normal((4, rank // 2 if rank else 4))
+            cov = np.kron(factor @ factor.T, np.eye(2))  # state order (x, y, vx, vy, …)
+        else:
+            factor = rng.standard_normal((8, rank or 8))
+            cov = factor @ factor.T
+        scale = 10.0 ** rng.uniform(-12, 12, 8)
+        out.append(cov * np.outer(scale, scale))
+    return out
+
+
+def _perturbed(rng: np.random.Generator, cov: np.ndarray, size: float) -> np.ndarray:
+    """``cov`` plus a random symmetric perturbation of ``size`` relative to its correlation scale."""
+    noise = rng.standard_normal(cov.shape)
+    std = np.sqrt(np.diag(cov))
+    return cov + size * (noise + noise.T) / 2 * np.outer(std, std)
+
+
+@pytest.mark.parametrize("rank, bound", [(None, 1e-10), (4, 1e-6)])
+def test_a_draw_is_continuous_in_the_covariance(rank, bound):
+    """Round-off in a covariance (1e-15 of its scale) moves a draw by round-off, not by the
+    eigensolver's choice of eigenvectors (``V √Λ ξ`` moved by up to 5 σ here). A singular covariance's
+    square root is only Hölder-continuous (exponent ½): hence the looser bound."""
+    rng = np.random.default_rng(17)
+    worst = 0.0
+    for cov in _covariances(rng, 200, rank):
+        normals = rng.standard_normal(8)
+        std = np.sqrt(np.diag(cov))
+        moved = sample_gaussian(np.zeros(8), _perturbed(rng, cov, 1e-15), normals) - sample_gaussian(
+            np.zeros(8), cov, normals)
+        worst = max(worst, float(np.max(np.abs(moved) / std)))
+    assert worst < bound
+
+
+def test_a_draw_does_not_depend_on_the_eigensolver(monkeypatch):
+    """numpy's ``eigh`` and every scipy driver give the same draw, to round-off."""
+    rng = np.random.default_rng(5)
+    covs = _covariances(rng, 40, None) + _covariances(rng, 40, 4)
+    normals = rng.standard_normal((len(covs), 8))
+    batch = np.stack(covs)
+    std = np.sqrt(np.diagonal(batch, axis1=-2, axis2=-1))
+    reference = sample_gaussian(np.zeros(8), batch, normals)
+    for driver in ("ev", "evd", "evr", "evx"):
+        def scipy_eigh(matrices, driver=driver):
+            pairs = [scipy.linalg.eigh(m, driver=driver) for m in matrices.reshape(-1, 8, 8)]
+            return (np.stack([w for w, _ in pairs]).reshape(matrices.shape[:-1]),
+                    np.stack([v for _, v in pairs]).reshape(matrices.shape))
+        monkeypatch.setattr(linear.np.linalg, "eigh", scipy_eigh)
+        drawn = sample_gaussian(np.zeros(8), batch, normals)
+        monkeypatch.undo()
+        full_rank = np.arange(len(covs)) < 40
+        difference = np.abs(drawn - reference) / std
+        assert difference[full_rank].max() < 1e-10, driver
+        assert difference[~full_rank].max() < 1e-6, driver
+
+
+def test_the_symmetric_root_is_a_square_root():
+    rng = np.random.default_rng(8)
+    for cov in _covariances(rng, 10, None) + _covariances(rng, 10, 4):
+        std = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(std, std)
+        root = symmetric_root(corr)
+        np.testing.assert_allclose(root, root.T, atol=1e-13)
+        np.testing.assert_allclose(root @ root, corr, atol=1e-12)
+        assert np.linalg.eigvalsh(root).min() > -1e-7  # positive semi-definite
 
 
 def test_batched_rates_match_the_scalar_stability():
