@@ -1,6 +1,7 @@
 """The 3D coast against the nonlinear rigid body over a whole flight (docs/physics.md §14).
 
     python -m benchmarks.coast_vs_nonlinear [--start 11] [--every 10] [--rtol 1e-9] [--mesh 6 48]
+    python -m benchmarks.coast_vs_nonlinear --beam-profile gaussian --beam-radius 0.8 --rtol 1e-7   # v1's beam
 
 From the end of the control window to cut-off, the episode core propagates the linearised
 model held piecewise (``RigidPlant.coast``, noise off). Here the same start is integrated with
@@ -48,12 +49,16 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--rtol", type=float, default=1e-9)
     parser.add_argument("--every", type=float, default=10.0, help="compare every N seconds of flight (and at cut-off)")
     parser.add_argument("--beam-profile", default="flat-top", choices=BEAM_PROFILES,
-                        help="the beam (its radius the aperture's); a Gaussian's force is smooth at zero offset")
+                        help="the beam; a Gaussian's force is smooth at zero offset")
+    parser.add_argument("--beam-radius", type=float, default=1.0,
+                        help="the beam's radius (a Gaussian's waist) over the aperture's radius "
+                             "(LightSail3DRealistic-v0: flat-top 1; v1: gaussian 0.8)")
     args = parser.parse_args(argv)
 
-    # LightSail3DRealistic-v0's sail and flight (its noise aside).
+    # LightSail3DRealistic-v0's (or v1's) sail and flight (its noise aside).
     sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9,
-                           beam_profile=args.beam_profile, radial_nodes=args.mesh[0], angular_nodes=args.mesh[1])
+                           beam_profile=args.beam_profile, beam_radius_m=args.beam_radius * DEEP_DISH.aperture_radius_m,
+                           radial_nodes=args.mesh[0], angular_nodes=args.mesh[1])
     spin = 1.0
     plant = RigidPlant(RigidFlight(sail, spin_rad_s=spin, relativistic=True, control_start_s=10.0))
     params = plant.params(np.ones((1, plant.n_factors)))
@@ -72,7 +77,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     times = np.append(np.arange(args.start, cutoff, SAMPLE_S), cutoff)
     speeds = np.empty_like(times)
     kept = 0
-    print(f"coast from {args.start:g} s to {cutoff:g} s, {args.beam_profile} beam, mesh {args.mesh[0]}×{args.mesh[1]}, relativistic, "
+    print(f"coast from {args.start:g} s to {cutoff:g} s, {args.beam_profile} beam of radius {args.beam_radius:g} a, mesh {args.mesh[0]}×{args.mesh[1]}, relativistic, "
           f"spin {spin} rad/s, DOP853 rtol {args.rtol:g}; |ΔV⊥| against the largest |V⊥| so far (the amplitude: "
           f"V⊥ at one time depends on the oscillation's phase); amplitudes over the last 0.2 s (nonlinear) and "
           f"the reward's envelope ahead (linear)", flush=True)

@@ -174,6 +174,20 @@ class LightSail3DEnv(LightSailEnv):
     moments. The payload offset ``e`` puts the CoM ``e m_craft/m`` off the axis: the push exerts a
     constant torque about y and the equilibrium tilts until the force line passes through the CoM;
     it is modelled fixed in the lab frame (with spin it turns at ``Ω`` in truth, see §15).
+
+    ## Version History
+
+    * ``LightSail3DRealistic-v1`` (lightsail-gym 0.2.0): the realistic task in a Gaussian beam of
+      waist ``0.8 a`` instead of a flat-top spot of exactly the aperture's size, whose edge on the
+      rim made the force kinked at zero offset (the linear window ~20 % of the amplitude off the
+      rigid body, the coast's phase lost, the sail's lateral stiffness gone beyond ``L0``); its
+      ground jitter recomputed for that beam by the same rule (docs/physics.md §14, ``sail_env.tasks``).
+    * v0 (lightsail-gym 0.2.0): the end state of a noisy coast (and of the pre-control flight) is
+      drawn with the symmetric square root of its correlation matrix, no longer with eigenvectors
+      whose signs depended on the LAPACK driver and the CPU's BLAS kernel (docs/physics.md §3):
+      ``LightSail3DRealistic-v0`` and any env with noise over the coast draw other end states for
+      the same seed, from the same distribution; noise-free episodes are unchanged.
+    * v0 (lightsail-gym 0.1.0): initial release.
     """
 
     metadata = {"render_modes": [], "render_fps": 30}

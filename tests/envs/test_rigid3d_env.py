@@ -45,12 +45,17 @@ def _play(env, actions, **reset_kwargs):
     ("LightSail3D-v0", {}), ("LightSail3D-v0", {"power_control": True}),
     ("LightSail3D-v0", {"absorptivity": 0.1, "light_delay": True, "control_start_s": 10.0}),
     ("LightSail3DRealistic-v0", {}), ("LightSail3DRealistic-v0", {"power_control": True}),
+    ("LightSail3DRealistic-v1", {}),
     ("LightSail3D-v0", {"payload_offset_m": 1e-3, "dust_density_m3": 1e-6, "dust_grain_mass_kg": 1e-15})])
 def test_checkers_pass_without_warnings(env_id, kwargs):
+    # Made first: gym.make warns that LightSail3DRealistic-v0 has a newer version, as it should.
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*LightSail3DRealistic-v0 is out of date", DeprecationWarning)
+        envs = gym.make(f"sail_env:{env_id}", **kwargs).unwrapped, gym.make(env_id, **kwargs).unwrapped
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        check_env(gym.make(f"sail_env:{env_id}", **kwargs).unwrapped)
-        sb3_check_env(gym.make(env_id, **kwargs).unwrapped, warn=True)
+        check_env(envs[0])
+        sb3_check_env(envs[1], warn=True)
 
 
 def test_spaces_dt_and_info():

@@ -76,6 +76,9 @@ BENCHMARK_FRACTION = 0.5
 #: That level, per 5 ms step, for the deep dish (R = 4 m) in a flat-top beam of its aperture on
 #: the relativistic flight with the L0 of a 10 km array (it tolerates 3.1e-15).
 GROUND_JITTER_BENCHMARK_RAD = 1.5e-15
+#: The same rule for LightSail3DRealistic-v1's beam, a Gaussian of waist 0.8 a whose spot widens
+#: beyond the same L0 (that of a spot of the aperture's radius): the deep dish tolerates 1.7e-15.
+GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD = 8.5e-16
 
 
 def diffraction_length_m(spot_radius_m: float, array_diameter_m: float = ARRAY_DIAMETER_M,
@@ -292,14 +295,15 @@ def matched_sail(config: RigidSailConfig, push_n: float) -> RigidSail:
 
 def analyse(config: RigidSailConfig, relativistic: bool, array_diameter_m: float | None, start_s: float = 0.0,
             cutoff_s: float = SEED.beam_cutoff_s, segment_s: float = 1.0, probability: float = 0.95,
-            push_n: float | None = None) -> JitterTolerance:
+            push_n: float | None = None, spot_radius_m: float | None = None) -> JitterTolerance:
     """Tolerable ground jitter of one sail and beam; ``array_diameter_m=None`` keeps the spot fixed
-    (``L0 = ∞``), otherwise the spot widens beyond the ``L0`` of a spot of the beam's radius.
-    ``push_n``: the near-field push the beam power is matched to (``None``: the seed beam's)."""
+    (``L0 = ∞``), otherwise the spot widens beyond the ``L0`` of a spot of ``spot_radius_m``
+    (``None``: the beam's radius). ``push_n``: the near-field push the beam power is matched to
+    (``None``: the seed beam's)."""
     reference = RigidSail(config.replace(beam_profile="flat-top", beam_radius_m=None)).centred_push()
     sail = matched_sail(config, reference if push_n is None else push_n)
-    length = math.inf if array_diameter_m is None else diffraction_length_m(config.outer_beam_radius_m,
-                                                                             array_diameter_m)
+    spot = config.outer_beam_radius_m if spot_radius_m is None else spot_radius_m
+    length = math.inf if array_diameter_m is None else diffraction_length_m(spot, array_diameter_m)
     flight = fly(sail, cutoff_s, relativistic, length)
     return ground_jitter_tolerance(FlightModel(sail, flight), start_s, segment_s, probability=probability)
 
