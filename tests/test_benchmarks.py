@@ -3,7 +3,7 @@ library, and a refactoring that breaks them fails here rather than when someone 
 
 import pytest
 
-from benchmarks import coast_vs_nonlinear, delay_absorption_3d, realistic_ablation
+from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -30,3 +30,11 @@ def test_the_flat_top_edge_costs_the_coast_its_accuracy_a_gaussian_does_not(caps
     flat_top = coast_vs_nonlinear.main(["--start", "599", "--rtol", "1e-7"])
     assert gaussian["relative_velocity_error"] < 5e-5
     assert flat_top["relative_velocity_error"] > 20 * gaussian["relative_velocity_error"]
+
+
+def test_two_blas_kernels_play_the_same_episodes(tmp_path, capsys):
+    """Two children under two OpenBLAS kernels (Prescott's generic one against this machine's):
+    the noisy planar task's pointing to 5e-10 (measured on 200 episodes), far inside the bound."""
+    summary = cross_kernel.main(["--episodes", "3", "--tasks", "LightSailRealistic-v0", "--out", str(tmp_path)])
+    assert summary["tasks"]["LightSailRealistic-v0"]["max_relative_difference"] < cross_kernel.SAME_EPISODES
+    assert (tmp_path / "cross_kernel_passive.json").is_file()
