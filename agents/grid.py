@@ -292,7 +292,7 @@ def work(storage: RDBStorage, study: optuna.Study, runs_dir: Path, max_cells: in
         done += 1
         summary = result["summary"]
         print(f"[{time.strftime('%H:%M:%S')}] {cell.name}: success {summary['success_rate']:.1%}, median pointing "
-              f"{evaluation.fmt(summary['terminal_pointing_rad']['median'])} rad", flush=True)
+              f"{evaluation.fmt_rad(summary['terminal_pointing_rad']['median'])}", flush=True)
     return 0
 
 
