@@ -20,11 +20,11 @@ class Parser(argparse.ArgumentParser):
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Shows defaults (not the absent ones: ``None``, an unset flag), keeps the description's and
-    epilog's line breaks."""
+    """Shows defaults (not the absent ones: ``None``, an unset flag, an empty list), keeps the
+    description's and epilog's line breaks."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
-        if action.default is None or action.default is False:
+        if action.default is None or action.default is False or action.default == []:
             return action.help
         return super()._get_help_string(action)
 
