@@ -81,7 +81,7 @@ POLICY = "MlpPolicy"
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = cli.Parser(prog="train.py", description=__doc__.splitlines()[0], formatter_class=cli.HelpFormatter,
+    parser = cli.Parser(prog="train.py", description=cli.describe(__doc__), formatter_class=cli.HelpFormatter,
                         epilog=f"env ids: {', '.join(TASKS)}")
     parser.add_argument("--algo", choices=sorted(ALGOS), help="required unless --resume")
     parser.add_argument("--env", default="LightSail-v0", choices=list(TASKS), metavar="ID", help="task id")
