@@ -74,10 +74,6 @@ COMMANDS = {"run": "a worker: takes cells until none is left (creates the grid o
             "redo": "queue the cells of --agents on --envs again (after their code changed)"}
 
 
-class CellTaken(Exception):
-    """This worker's trial was failed as stale and its cell queued again (its heartbeats came
-    later than ``--grace``): the cell's result is now the other trial's to record."""
-
 
 @dataclass(frozen=True)
 class Cell:
@@ -264,10 +260,22 @@ def cell_lock(run_dir: Path, name: str) -> Iterator[None]:
             fcntl.flock(file, fcntl.LOCK_UN)
 
 
-def ensure_ours(storage: RDBStorage, trial: optuna.Trial) -> None:
-    """Raise :class:`CellTaken` if the trial is no longer running (failed as stale by another worker)."""
-    if storage.get_trial(trial._trial_id).state != TrialState.RUNNING:
-        raise CellTaken
+def owns(storage: RDBStorage, trial: optuna.Trial) -> bool:
+    """Whether the trial is still this worker's: running, not failed as stale by another worker."""
+    return storage.get_trial(trial._trial_id).state == TrialState.RUNNING
+
+
+def record(storage: RDBStorage, study: optuna.Study, trial: optuna.Trial, result: dict[str, Any]) -> bool:
+    """Store a cell's result in its trial and finish it; False if the trial was taken meanwhile."""
+    try:
+        if not owns(storage, trial):
+            return False
+        for key, value in result.items():
+            trial.set_user_attr(key, value)
+        study.tell(trial, result["summary"]["success_rate"])
+    except UpdateFinishedTrialError:  # taken between the look and the writes
+        return False
+    return True
 
 
 @contextmanager
@@ -346,32 +354,28 @@ def work(storage: RDBStorage, study: optuna.Study, runs_dir: Path, max_cells: in
         trial.set_user_attr("worker", WORKER)
         run_dir = runs_dir / study.study_name / cell.name
         print(f"[{time.strftime('%H:%M:%S')}] {cell.name}: started (trial {trial.number}) -> {run_dir}", flush=True)
-        # A trial failed as stale while its worker lives (heartbeats late) is queued again: its
-        # first worker stops at its next evaluation (setting an attribute of a finished trial
-        # raises) or records nothing; the second waits on the cell's lock meanwhile.
+        # A trial failed as stale while its worker lives (heartbeats late) is queued again: the
+        # second trial waits on the cell's lock; the first worker stops at its next evaluation
+        # (setting an attribute of a finished trial raises) and records nothing.
         try:
-            try:
-                with beating(storage, trial), cell_lock(run_dir, cell.name):
-                    result = run_cell(cell, trial, run_dir, settings)
-            except KeyboardInterrupt:
-                ensure_ours(storage, trial)
+            with beating(storage, trial), cell_lock(run_dir, cell.name):
+                result = run_cell(cell, trial, run_dir, settings)
+        except KeyboardInterrupt:
+            if owns(storage, trial):
                 study.tell(trial, state=TrialState.FAIL)
                 storage.get_heartbeat_stale_trial_callback()(study, study.get_trials(deepcopy=False)[trial.number])
-                print(f"{cell.name}: stopped; put back in the queue (resumes from its checkpoint)", flush=True)
-                return 130
-            except (CellTaken, UpdateFinishedTrialError):
-                raise
-            except Exception as err:  # noqa: BLE001  (one broken cell must not stop the grid)
-                ensure_ours(storage, trial)
+            print(f"{cell.name}: stopped; put back in the queue (resumes from its checkpoint)", flush=True)
+            return 130
+        except UpdateFinishedTrialError:
+            result = None
+        except Exception as err:  # noqa: BLE001  (one broken cell must not stop the grid)
+            result = None
+            if owns(storage, trial):
                 trial.set_user_attr("error", f"{type(err).__name__}: {err}")
                 study.tell(trial, state=TrialState.FAIL)
                 print(f"{cell.name}: FAILED ({type(err).__name__}: {err})", flush=True)
                 continue
-            ensure_ours(storage, trial)
-            for key, value in result.items():
-                trial.set_user_attr(key, value)
-            study.tell(trial, result["summary"]["success_rate"])
-        except (CellTaken, UpdateFinishedTrialError):
+        if result is None or not record(storage, study, trial, result):
             print(f"{cell.name}: its trial {trial.number} was handed to another worker (heartbeats later than "
                   "--grace); that worker records the cell", flush=True)
             continue
