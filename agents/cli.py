@@ -20,13 +20,46 @@ class Parser(argparse.ArgumentParser):
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Shows defaults (not the absent ones: ``None``, an unset flag), keeps the description's and
-    epilog's line breaks."""
+    """Shows defaults (not the absent ones: ``None``, an unset flag, an empty list), keeps the
+    description's and epilog's line breaks."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
-        if action.default is None or action.default is False:
+        if action.default is None or action.default is False or action.default == []:
             return action.help
         return super()._get_help_string(action)
+
+
+def describe(docstring: str) -> str:
+    """A module docstring as ``--help`` text: all of it, without reStructuredText's double backticks."""
+    return docstring.replace("``", "")
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number >= 1."""
+    return _int_at_least(text, 1)
+
+
+def non_negative_int(text: str) -> int:
+    """An argparse type: a whole number >= 0 (seeds)."""
+    return _int_at_least(text, 0)
+
+
+def _int_at_least(text: str, minimum: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= {minimum}, got {text!r}") from None
+    if value < minimum:
+        raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+    return value
+
+
+def distinct(values: list, flag: str) -> list:
+    """``values`` if none is given twice; a repeated one would run (and count) its work twice."""
+    repeated = sorted({str(v) for v in values if values.count(v) > 1})
+    if repeated:
+        raise UsageError(f"argument {flag}: {', '.join(repeated)} given more than once (see --help)")
+    return values
 
 
 def fail(message: object) -> int:

@@ -36,7 +36,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
-from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, fail  # noqa: E402
+from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, describe, fail  # noqa: E402
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
 from sail_env.core.spec import EpisodeSpec  # noqa: E402
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
@@ -269,6 +269,11 @@ def fmt(value: float | None) -> str:
     return "diverged" if value is None else f"{value:.2e}"
 
 
+def fmt_rad(value: float | None) -> str:
+    """A pointing with its unit; a diverged one has none ("diverged", not "diverged rad")."""
+    return "diverged" if value is None else f"{value:.2e} rad"
+
+
 def markdown(env_id: str, config: dict[str, Any], summary: dict[str, dict[str, Any]]) -> str:
     """The results table and the plots."""
     lines = [f"# {env_id}: {config['episodes']} paired episodes (seeds {config['seed']}…"
@@ -345,7 +350,7 @@ def evaluate(env_id: str, specs: list[str], episodes: int, seed: int, raw_observ
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The arguments, checked: :class:`UsageError` (one line) for any that is bad."""
-    parser = Parser(description=__doc__, formatter_class=HelpFormatter)
+    parser = Parser(prog="evaluate.py", description=describe(__doc__), formatter_class=HelpFormatter)
     parser.add_argument("--env", default="LightSail-v0", help=f"task id: {', '.join(TASKS)}")
     parser.add_argument("--agent", action="append", required=True,
                         help=f"one of {', '.join(BASELINES)} or a model .zip; repeat to compare")
@@ -378,7 +383,9 @@ def main(argv: list[str] | None = None) -> int:
                                          progress=not args.no_progress_bar)
     except (UsageError, ModelLoadError, ValueError) as err:
         return fail(err)
-    config = {"episodes": args.episodes, "seed": args.seed, "agents": args.agent,
+    # A model is recorded by the file it is, not the link it was reached by (runs/latest moves on).
+    agents = [spec if spec in BASELINES else str(Path(spec).resolve()) for spec in args.agent]
+    config = {"episodes": args.episodes, "seed": args.seed, "agents": agents,
               "env_kwargs": {k: repr(v) for k, v in gym.spec(args.env).kwargs.items()}}
     try:
         report = write_report(args.out, args.env, config, results, trajectories)
@@ -387,6 +394,6 @@ def main(argv: list[str] | None = None) -> int:
     for name, s in report["agents"].items():
         lo, hi = s["success_ci95"]
         print(f"{name:>32}: success {s['success_rate']:.1%} [{lo:.1%}, {hi:.1%}], "
-              f"median pointing {fmt(s['terminal_pointing_rad']['median'])} rad, mean return {s['mean_return']:.2f}")
+              f"median pointing {fmt_rad(s['terminal_pointing_rad']['median'])}, mean return {s['mean_return']:.2f}")
     print(f"report: {args.out / 'report.md'}")
     return 0

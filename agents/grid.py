@@ -23,6 +23,7 @@ starts it again otherwise.
 from __future__ import annotations
 
 import argparse
+import fcntl
 import math
 import os
 import socket
@@ -42,7 +43,8 @@ import numpy as np
 import optuna
 from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback, fail_stale_trials
 from optuna.trial import FrozenTrial, TrialState
-from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
+from optuna.exceptions import UpdateFinishedTrialError
+from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError, SQLAlchemyError
 
 from agents import cli, evaluation, training
 from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, normalize_kwargs, versions
@@ -63,6 +65,14 @@ MAX_RETRY = 3
 CELL_PARAMS = ("env", "agent", "hyperparameters", "seed")
 #: Where a cell runs, for ``status``.
 WORKER = f"{socket.gethostname()}:{os.getpid()}"
+#: ``--grace`` must be at least this many heartbeats: a live worker whose beat is a little late
+#: (a busy database, a slow disk) must not have its cell handed to a second worker.
+GRACE_HEARTBEATS = 2
+COMMANDS = {"run": "a worker: takes cells until none is left (creates the grid on first use)",
+            "status": "done, running (where), failed, what remains",
+            "render": "the results table (--readme: also into the README's grid-table markers)",
+            "redo": "queue the cells of --agents on --envs again (after their code changed)"}
+
 
 
 @dataclass(frozen=True)
@@ -113,11 +123,35 @@ def storage_url(url: str) -> str:
     return "postgresql+psycopg://" + url.removeprefix("postgresql://") if url.startswith("postgresql://") else url
 
 
-def open_storage(url: str, heartbeat: int, grace: int) -> RDBStorage:
-    """The grid's database; SQLite waits for its lock instead of failing at once."""
+def sqlite_file(url: str) -> Path | None:
+    """The file of a ``sqlite:///FILE`` URL (None for other databases and in-memory SQLite)."""
+    file = url.removeprefix("sqlite:///") if url.startswith("sqlite:///") else ""
+    return Path(file) if file and file != ":memory:" else None
+
+
+def open_storage(url: str, heartbeat: int, grace: int, create: bool = True) -> RDBStorage:
+    """The grid's database; SQLite waits for its lock instead of failing at once.
+
+    Without ``create`` a SQLite file that does not exist is refused (:class:`cli.UsageError`),
+    so that looking (``status``, ``render``) leaves no empty database behind. A URL or database
+    that cannot be opened is a one-line :class:`cli.UsageError` naming ``--storage``.
+    """
     url = storage_url(url)
-    if url.startswith("sqlite:///"):
-        Path(url.removeprefix("sqlite:///")).parent.mkdir(parents=True, exist_ok=True)
+    file = sqlite_file(url)
+    if file is not None and not create and not file.is_file():
+        raise cli.UsageError(f"--storage {url}: no grid yet ({file} does not exist): "
+                             "python -m agents.grid run creates it")
+    if file is not None and create:
+        cli.check_writable_dir(file.parent, "--storage")
+        file.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        return _connect(url, heartbeat, grace)
+    except SQLAlchemyError as err:  # a bogus URL, a file that is not a database, a server that refuses
+        first = str(getattr(err, "orig", None) or err).splitlines()[0]
+        raise cli.UsageError(f"--storage {url}: cannot open it ({type(err).__name__}: {first})") from err
+
+
+def _connect(url: str, heartbeat: int, grace: int) -> RDBStorage:
     engine = {"connect_args": {"timeout": 60}} if url.startswith("sqlite") else {"pool_pre_ping": True}
     def connect() -> RDBStorage:
         return RDBStorage(url, engine_kwargs=engine, heartbeat_interval=heartbeat, grace_period=grace,
@@ -131,6 +165,16 @@ def open_storage(url: str, heartbeat: int, grace: int) -> RDBStorage:
             # "already exists" and try again; a storage that stays unreachable fails on the last try.
             time.sleep(1 + attempt)
     return connect()
+
+
+def load_grid(storage: RDBStorage, study_name: str) -> optuna.Study:
+    """The grid ``study_name``; a one-line error that says how to make it if there is none."""
+    try:
+        return optuna.load_study(storage=storage, study_name=study_name)
+    except KeyError:
+        names = [s.study_name for s in optuna.get_all_study_summaries(storage, include_best_trial=False)]
+        raise cli.UsageError(f"--study {study_name}: no such grid in the storage (it has {names or 'none'}): "
+                             f"python -m agents.grid run --study {study_name} creates it") from None
 
 
 def create_grid(storage: RDBStorage, study_name: str, cells: list[Cell], settings: dict[str, Any]) -> optuna.Study:
@@ -195,6 +239,43 @@ def claim(storage: RDBStorage, study: optuna.Study) -> optuna.Trial | None:
         # a fresh trial that stands for no cell. Mark it so and look again.
         trial.set_user_attr("cell", None)
         study.tell(trial, state=TrialState.PRUNED)
+
+
+@contextmanager
+def cell_lock(run_dir: Path, name: str) -> Iterator[None]:
+    """Hold the cell's lock file (beside its run folder) while the block runs: a second trial of a
+    cell whose worker still runs it waits here instead of training into the same folder. The
+    kernel drops the lock of a process that dies, so a dead worker's cell is not blocked."""
+    lock = run_dir.with_name(f".{run_dir.name}.lock")
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with lock.open("a") as file:
+        try:
+            fcntl.flock(file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print(f"{name}: another worker still runs this cell; waiting for it to stop", flush=True)
+            fcntl.flock(file, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(file, fcntl.LOCK_UN)
+
+
+def owns(storage: RDBStorage, trial: optuna.Trial) -> bool:
+    """Whether the trial is still this worker's: running, not failed as stale by another worker."""
+    return storage.get_trial(trial._trial_id).state == TrialState.RUNNING
+
+
+def record(storage: RDBStorage, study: optuna.Study, trial: optuna.Trial, result: dict[str, Any]) -> bool:
+    """Store a cell's result in its trial and finish it; False if the trial was taken meanwhile."""
+    try:
+        if not owns(storage, trial):
+            return False
+        for key, value in result.items():
+            trial.set_user_attr(key, value)
+        study.tell(trial, result["summary"]["success_rate"])
+    except UpdateFinishedTrialError:  # taken between the look and the writes
+        return False
+    return True
 
 
 @contextmanager
@@ -273,26 +354,35 @@ def work(storage: RDBStorage, study: optuna.Study, runs_dir: Path, max_cells: in
         trial.set_user_attr("worker", WORKER)
         run_dir = runs_dir / study.study_name / cell.name
         print(f"[{time.strftime('%H:%M:%S')}] {cell.name}: started (trial {trial.number}) -> {run_dir}", flush=True)
+        # A trial failed as stale while its worker lives (heartbeats late) is queued again: the
+        # second trial waits on the cell's lock; the first worker stops at its next evaluation
+        # (setting an attribute of a finished trial raises) and records nothing.
         try:
-            with beating(storage, trial):
+            with beating(storage, trial), cell_lock(run_dir, cell.name):
                 result = run_cell(cell, trial, run_dir, settings)
         except KeyboardInterrupt:
-            study.tell(trial, state=TrialState.FAIL)
-            storage.get_heartbeat_stale_trial_callback()(study, study.get_trials(deepcopy=False)[trial.number])
+            if owns(storage, trial):
+                study.tell(trial, state=TrialState.FAIL)
+                storage.get_heartbeat_stale_trial_callback()(study, study.get_trials(deepcopy=False)[trial.number])
             print(f"{cell.name}: stopped; put back in the queue (resumes from its checkpoint)", flush=True)
             return 130
+        except UpdateFinishedTrialError:
+            result = None
         except Exception as err:  # noqa: BLE001  (one broken cell must not stop the grid)
-            trial.set_user_attr("error", f"{type(err).__name__}: {err}")
-            study.tell(trial, state=TrialState.FAIL)
-            print(f"{cell.name}: FAILED ({type(err).__name__}: {err})", flush=True)
+            result = None
+            if owns(storage, trial):
+                trial.set_user_attr("error", f"{type(err).__name__}: {err}")
+                study.tell(trial, state=TrialState.FAIL)
+                print(f"{cell.name}: FAILED ({type(err).__name__}: {err})", flush=True)
+                continue
+        if result is None or not record(storage, study, trial, result):
+            print(f"{cell.name}: its trial {trial.number} was handed to another worker (heartbeats later than "
+                  "--grace); that worker records the cell", flush=True)
             continue
-        for key, value in result.items():
-            trial.set_user_attr(key, value)
-        study.tell(trial, result["summary"]["success_rate"])
         done += 1
         summary = result["summary"]
         print(f"[{time.strftime('%H:%M:%S')}] {cell.name}: success {summary['success_rate']:.1%}, median pointing "
-              f"{evaluation.fmt(summary['terminal_pointing_rad']['median'])} rad", flush=True)
+              f"{evaluation.fmt_rad(summary['terminal_pointing_rad']['median'])}", flush=True)
     return 0
 
 
@@ -369,7 +459,7 @@ def table_markdown(study: optuna.Study) -> str:
     lines = ["| task | agent | hyperparameters | seeds | success (mean ± std) | log10 median pointing | "
              "log10 p90 pointing | training steps | training time per seed |",
              "|---|---|---|---:|---:|---:|---:|---:|---:|"]
-    for env in settings["envs"]:
+    for env in dict.fromkeys(settings["envs"]):  # once each, also in a grid made when repeats were accepted
         for agent in AGENTS:
             for hyperparameters in ("none", *HYPERPARAMETERS):
                 trials = groups.get((env, agent, hyperparameters))
@@ -392,43 +482,66 @@ def table_markdown(study: optuna.Study) -> str:
 README_START, README_END = "<!-- grid-table:start -->", "<!-- grid-table:end -->"
 
 
+def readme_around_table(readme: Path) -> tuple[str, str]:
+    """The README's text before and after its grid table (:class:`cli.UsageError` if it cannot
+    be read or lacks the markers): checked before the table is rendered."""
+    try:
+        text = readme.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise cli.UsageError(f"--readme {readme}: cannot read it ({getattr(err, 'strerror', None) or err})") from err
+    if README_START not in text or README_END not in text.split(README_START, 1)[-1]:
+        raise cli.UsageError(f"--readme {readme}: no {README_START} … {README_END} markers to put the table between")
+    head, rest = text.split(README_START, 1)
+    return head, rest.split(README_END, 1)[1]
+
+
 def replace_in_readme(readme: Path, table: str) -> None:
     """Put ``table`` between the README's grid-table markers."""
-    text = readme.read_text()
-    if README_START not in text or README_END not in text:
-        raise ValueError(f"{readme}: no {README_START} … {README_END} markers")
-    head, rest = text.split(README_START, 1)
-    readme.write_text(f"{head}{README_START}\n{table}\n{README_END}{rest.split(README_END, 1)[1]}")
+    head, tail = readme_around_table(readme)
+    readme.write_text(f"{head}{README_START}\n{table}\n{README_END}{tail}")
 
 
 # ---------------------------------------------------------------------- command line
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = cli.Parser(prog="python -m agents.grid", description=__doc__.splitlines()[0],
-                        formatter_class=cli.HelpFormatter)
-    parser.add_argument("command", choices=("run", "status", "render", "redo"))
+    """The arguments, checked: :class:`cli.UsageError` (one line) for any that cannot be right."""
+    commands = "\n".join(f"  {name:<8}{text}" for name, text in COMMANDS.items())
+    parser = cli.Parser(prog="python -m agents.grid", description=cli.describe(__doc__),
+                        formatter_class=cli.HelpFormatter, epilog=f"commands:\n{commands}")
+    parser.add_argument("command", choices=COMMANDS, metavar="COMMAND", help=f"{', '.join(COMMANDS)} (see below)")
     parser.add_argument("--storage", default=DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
     parser.add_argument("--study", default=DEFAULT_STUDY, help="name of the grid in the storage")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/grid"), help="where cells keep their files")
     parser.add_argument("--envs", nargs="+", default=list(PLANAR_TASKS), choices=list(TASKS), metavar="ID",
-                        help="tasks of the grid (default: the planar ones)")
-    parser.add_argument("--algos", nargs="+", default=sorted(ALGOS), choices=sorted(ALGOS))
-    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS), help="seeds of the tuned rows")
-    parser.add_argument("--default-seeds", nargs="*", type=int, default=[0],
-                        help="seeds of the library-defaults rows")
-    parser.add_argument("--timesteps", type=training.positive_int, help="override every learner's budget (tests)")
-    parser.add_argument("--eval-freq", type=int, default=10_000, help="training-time evaluations (model selection)")
-    parser.add_argument("--eval-episodes", type=training.positive_int, default=100)
-    parser.add_argument("--save-freq", type=training.positive_int, default=training.DEFAULT_SAVE_FREQ,
+                        help="tasks of the grid")
+    parser.add_argument("--algos", nargs="+", default=sorted(ALGOS), choices=sorted(ALGOS), help="learners of the grid")
+    parser.add_argument("--seeds", nargs="+", type=cli.non_negative_int, default=list(SEEDS), help="seeds of the tuned rows")
+    parser.add_argument("--default-seeds", nargs="*", type=cli.non_negative_int, default=[0],
+                        help="seeds of the library-defaults rows (none: no such rows)")
+    parser.add_argument("--timesteps", type=cli.positive_int,
+                        help="override every learner's budget (tests; default: each one's shipped n_timesteps)")
+    parser.add_argument("--eval-freq", type=int, default=10_000,
+                        help="training-time evaluations (model selection) every N steps (<= 0: never)")
+    parser.add_argument("--eval-episodes", type=cli.positive_int, default=100, help="episodes per training-time evaluation")
+    parser.add_argument("--save-freq", type=cli.positive_int, default=training.DEFAULT_SAVE_FREQ,
                         help="checkpoint every N steps")
-    parser.add_argument("--max-cells", type=training.positive_int, help="stop after this many cells")
+    parser.add_argument("--max-cells", type=cli.positive_int, help="stop after this many cells")
     parser.add_argument("--no-wait", action="store_true", help="exit when no cell is waiting, even if some run elsewhere")
-    parser.add_argument("--heartbeat", type=training.positive_int, default=60, help="seconds between heartbeats")
-    parser.add_argument("--grace", type=training.positive_int, default=300,
-                        help="seconds without a heartbeat after which a cell is taken again")
+    parser.add_argument("--heartbeat", type=cli.positive_int, default=60, help="seconds between heartbeats")
+    parser.add_argument("--grace", type=cli.positive_int, default=300,
+                        help=f"seconds without a heartbeat after which a cell is taken again (at least "
+                             f"{GRACE_HEARTBEATS} × --heartbeat)")
     parser.add_argument("--agents", nargs="+", default=[], choices=AGENTS, metavar="AGENT",
-                        help="redo: the agents whose cells to queue again (on --envs)")
+                        help=f"redo: the agents whose cells to queue again (on --envs): {', '.join(AGENTS)}")
     parser.add_argument("--readme", type=Path, help="render: write the table into this README's grid-table markers")
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    for flag in ("envs", "algos", "seeds", "default_seeds", "agents"):
+        cli.distinct(getattr(args, flag), f"--{flag.replace('_', '-')}")
+    if args.grace < GRACE_HEARTBEATS * args.heartbeat:
+        parser.error(f"argument --grace: must be at least {GRACE_HEARTBEATS} × --heartbeat ({args.heartbeat} s), "
+                     f"got {args.grace}: a live worker's cell would be handed to a second worker")
+    if args.readme is not None:
+        readme_around_table(args.readme)
+    return args
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -438,19 +551,16 @@ def main(argv: list[str] | None = None) -> int:
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     try:
         args = parse_args(argv)
-    except cli.UsageError as err:
-        return cli.fail(err)
-    settings = {"envs": args.envs, "algos": args.algos, "tuned_seeds": args.seeds, "default_seeds": args.default_seeds,
-                "timesteps": args.timesteps, "eval_freq": args.eval_freq, "eval_episodes": args.eval_episodes,
-                "save_freq": args.save_freq, "episodes": EPISODES}
-    try:
-        storage = open_storage(args.storage, args.heartbeat, args.grace)
+        settings = {"envs": args.envs, "algos": args.algos, "tuned_seeds": args.seeds,
+                    "default_seeds": args.default_seeds, "timesteps": args.timesteps, "eval_freq": args.eval_freq,
+                    "eval_episodes": args.eval_episodes, "save_freq": args.save_freq, "episodes": EPISODES}
+        storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command == "run")
         if args.command == "run":
             training.stop_on_signals()
             study = create_grid(storage, args.study, grid_cells(settings), settings)
             return work(storage, study, args.runs_dir, args.max_cells, wait=not args.no_wait)
-        study = optuna.load_study(storage=storage, study_name=args.study)
-    except (ValueError, KeyError, RuntimeError, OperationalError) as err:
+        study = load_grid(storage, args.study)
+    except (ValueError, KeyError, RuntimeError, SQLAlchemyError) as err:  # cli.UsageError is a ValueError
         return cli.fail(str(err).splitlines()[0])
     if args.command == "status":
         print(status_text(study))

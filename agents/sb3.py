@@ -59,7 +59,11 @@ def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> 
     if not isinstance(table, dict) or env_id not in table:
         known = sorted(table) if isinstance(table, dict) else []
         raise ValueError(f"{path}: no entry for {env_id!r} (has {known})")
-    return dict(table[env_id])
+    entry = table[env_id]
+    if not isinstance(entry, dict):
+        raise ValueError(f"{path} [{env_id}]: the entry must be a mapping of hyperparameters (key: value lines), "
+                         f"got {type(entry).__name__} {entry!r}")
+    return dict(entry)
 
 
 def policy_kwargs(value: str | dict[str, Any] | None) -> dict[str, Any]:
@@ -232,6 +236,8 @@ class SB3Agent:
         path = Path(path)
         if not path.is_file():
             raise ModelLoadError(f"{path}: model file not found")
+        # runs/latest/best_model.zip is named (and recorded) by the run the link points at now.
+        run_name = path.resolve().parent.name
         algo = algo_of(path)
         stats, record = normalizer_path(path), run_record(path)
         if record is not None:
@@ -251,12 +257,13 @@ class SB3Agent:
         except Exception as err:
             raise ModelLoadError(f"{path}: cannot load {algo} model ({type(err).__name__}: {err})") from err
         shape = model.observation_space.shape
-        if observation_shape is not None and shape != tuple(observation_shape):
-            raise ModelLoadError(f"{path}: trained on observations of shape {shape}, "
-                                 f"this env has {tuple(observation_shape)}")
-        normalizer = load_normalizer(stats, shape) if stats.is_file() else None
         trained_env = record[1].get("env") if record is not None else None
-        return cls(model, normalizer, f"{algo}:{path.parent.name}/{path.stem}", trained_env)
+        if observation_shape is not None and shape != tuple(observation_shape):
+            hint = f"; this model was trained on {trained_env}: pass --env {trained_env}" if trained_env else ""
+            raise ModelLoadError(f"{path}: trained on observations of shape {shape}, "
+                                 f"this env has {tuple(observation_shape)}{hint}")
+        normalizer = load_normalizer(stats, shape) if stats.is_file() else None
+        return cls(model, normalizer, f"{algo}:{run_name}/{path.stem}", trained_env)
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         if self.normalizer is not None:

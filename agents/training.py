@@ -6,8 +6,9 @@
 
 Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (keyed by env id, or
 ``--config FILE``); flags override them. Each run gets a directory of its own: ``--out``,
-or ``runs/<env>-<algo>-<seed>`` numbered ``_2``, ``_3``, … when that one holds an earlier
-run (``runs/latest`` then points at the newest). A new run never writes into an old one;
+or ``runs/<env>-<algo>-<seed>`` numbered ``_2``, ``_3``, … when that folder exists already
+(made atomically, so two runs started at once get two folders; ``runs/latest`` then points
+at the newest). A new run never writes into an old one;
 ``--resume DIR`` continues the run in ``DIR`` from its newest checkpoint. A run directory holds:
 
     run.json                          versions, seed, configuration, one entry per session
@@ -25,12 +26,14 @@ import argparse
 import inspect
 import json
 import math
+import os
 import shlex
 import signal
 import sys
 import time
 import zipfile
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -38,12 +41,14 @@ import gymnasium as gym
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.save_util import load_from_zip_file
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecMonitor, VecNormalize
 
 import sail_env  # noqa: F401  (registers the env ids)
 from agents import cli
-from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, load_hyperparams, normalize_kwargs,
+from agents.cli import positive_int
+from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, load_hyperparams, load_normalizer, normalize_kwargs,
                         normalizer_path, one_thread_per_process, save_model, versions)
 from agents.vec_env import BatchedVecEnv
 from sail_env.tasks import TASKS
@@ -64,21 +69,24 @@ CONFIG_KEYS = frozenset({"algo", "env", "seed", "vec_env", "eval_freq", "eval_ep
                          "hyperparams_file", "hyperparams"})
 #: YAML keys that set up the run rather than the algorithm.
 RUN_KEYS = frozenset({"n_envs", "n_timesteps", "normalize", "policy"})
-
-
-def positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+#: The least value of each whole-number hyperparameter. Below it SB3 fails late and far from the
+#: YAML (n_steps 0 divides by zero, batch_size -3 trips an assert, n_epochs 0 an unbound local
+#: after the first rollout). batch_size 2: PPO normalises advantages over a batch (a batch of one
+#: divides by zero); one floor for every algorithm keeps one table. -1 means "as many as steps".
+WHOLE_NUMBER_MINIMUMS = {"n_timesteps": 1, "n_envs": 1, "n_steps": 1, "batch_size": 2, "n_epochs": 1,
+                         "buffer_size": 1, "learning_starts": 0, "train_freq": 1, "gradient_steps": -1,
+                         "target_update_interval": 1, "policy_delay": 1, "sde_sample_freq": -1}
+#: The observations are a flat vector: the CNN and dict policies cannot take them.
+POLICY = "MlpPolicy"
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = cli.Parser(prog="train.py", description=__doc__.splitlines()[0], formatter_class=cli.HelpFormatter,
+    parser = cli.Parser(prog="train.py", description=cli.describe(__doc__), formatter_class=cli.HelpFormatter,
                         epilog=f"env ids: {', '.join(TASKS)}")
     parser.add_argument("--algo", choices=sorted(ALGOS), help="required unless --resume")
-    parser.add_argument("--env", default="LightSail-v0", choices=list(TASKS), metavar="ID")
-    parser.add_argument("-n", "--timesteps", type=positive_int, help="total training steps (overrides n_timesteps)")
+    parser.add_argument("--env", default="LightSail-v0", choices=list(TASKS), metavar="ID", help="task id")
+    parser.add_argument("-n", "--timesteps", type=positive_int,
+                        help="total training steps (default: the hyperparameter entry's n_timesteps)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--n-envs", type=positive_int, help="parallel training envs (overrides n_envs)")
     parser.add_argument("--vec-env", choices=("batched", "dummy", "subproc"), default="batched",
@@ -129,12 +137,20 @@ def run_config(args: argparse.Namespace) -> dict[str, Any]:
 def check_hyperparams(config: dict[str, Any]) -> None:
     """A YAML entry's budget and keywords, before anything is written (ValueError names the entry)."""
     algo, hp, where = config["algo"], config["hyperparams"], f"{config['hyperparams_file']} [{config['env']}]"
-    for key, default in (("n_timesteps", None), ("n_envs", 1)):
-        value = hp.get(key, default)
-        if value is None:
-            raise ValueError(f"{where}: {key} is missing")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 1 or value != int(value):
-            raise ValueError(f"{where}: {key} must be a whole number >= 1, got {value!r}")
+    if "n_timesteps" not in hp:
+        raise ValueError(f"{where}: n_timesteps is missing")
+    for key, least in WHOLE_NUMBER_MINIMUMS.items():
+        value = hp.get(key)
+        if value is None or (key == "train_freq" and isinstance(value, (list, tuple))):  # (n, "episode"): SB3's check
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value < least or value != int(value):
+            raise ValueError(f"{where}: {key} must be a whole number >= {least}, got {value!r}")
+    if algo == "ppo" and int(hp.get("n_steps", PPO_DEFAULT_N_STEPS)) * int(hp.get("n_envs", 1)) < 2:
+        raise ValueError(f"{where}: n_steps × n_envs (PPO's rollout) must be >= 2, "
+                         f"got {hp.get('n_steps', PPO_DEFAULT_N_STEPS)} × {hp.get('n_envs', 1)}")
+    if hp.get("policy", POLICY) != POLICY:
+        raise ValueError(f"{where}: policy must be {POLICY} (the observations are a flat vector), "
+                         f"got {hp['policy']!r}")
     accepted = set(inspect.signature(ALGOS[algo]).parameters) | RUN_KEYS | {"noise_type", "noise_std"}
     unknown = sorted(set(hp) - accepted)
     if unknown:
@@ -154,19 +170,38 @@ def whole_rollouts(algo: str, total: int, hp: dict[str, Any]) -> int:
     return math.ceil(total / rollout) * rollout
 
 
+def fresh_dir(base: Path) -> Path:
+    """``base``, or the first of ``base_2``, ``base_3``, … that does not exist, now created (empty).
+
+    ``os.mkdir`` fails on a folder that exists, so of two processes asking at once each gets
+    its own: checking first and creating after, both took the same free name.
+    """
+    base.parent.mkdir(parents=True, exist_ok=True)
+    for k in range(1, 10_000):
+        path = base if k == 1 else base.with_name(f"{base.name}_{k}")
+        try:
+            os.mkdir(path)
+        except FileExistsError:
+            continue
+        return path
+    raise FileExistsError(f"{base}: no free name up to _9999")
+
+
 def new_run_dir(env_id: str, algo: str, seed: int, root: Path = RUNS_ROOT) -> Path:
-    """``root/<env>-<algo>-<seed>``, or the first of ``…_2``, ``…_3``, … that holds no run."""
-    base = root / f"{env_id}-{algo}-{seed}"
-    candidates = (base if k == 1 else base.with_name(f"{base.name}_{k}") for k in range(1, 10_000))
-    return next(path for path in candidates if not (path / "run.json").exists())
+    """A new, empty ``root/<env>-<algo>-<seed>`` (numbered ``_2``, ``_3``, … if taken)."""
+    return fresh_dir(root / f"{env_id}-{algo}-{seed}")
 
 
 def point_latest(run_dir: Path) -> None:
-    """``runs/latest`` names the newest run, so commands can refer to it."""
+    """``runs/latest`` names the newest run, so commands can refer to it. Replaced atomically
+    (a new link renamed over it): a run started at the same time never finds it missing."""
     latest = run_dir.parent / "latest"
-    if latest.is_symlink() or not latest.exists():
-        latest.unlink(missing_ok=True)
-        latest.symlink_to(run_dir.name, target_is_directory=True)
+    if latest.exists() and not latest.is_symlink():
+        return  # a folder of the user's own called latest: not ours to replace
+    link = run_dir.parent / f".latest-{os.getpid()}"
+    link.unlink(missing_ok=True)
+    link.symlink_to(run_dir.name, target_is_directory=True)
+    os.replace(link, latest)
 
 
 def make_env(env_id: str, n_envs: int, seed: int, vec_env: str, normalize: dict[str, Any] | None,
@@ -196,15 +231,51 @@ def checkpoint_steps(path: Path) -> int:
     return int(path.stem.split("_")[-2])
 
 
-def latest_checkpoint(run_dir: Path, normalized: bool = False) -> Path:
-    """The checkpoint with the most steps in ``run_dir/checkpoints`` that was written completely:
-    a whole zip and, for a ``normalized`` run, its statistics (a process killed while saving
-    leaves the newest one incomplete; the one before it is then the latest)."""
+def complete_checkpoints(run_dir: Path, normalized: bool = False) -> list[Path]:
+    """The checkpoints in ``run_dir/checkpoints`` that were written completely, oldest first: a
+    whole zip and, for a ``normalized`` run, its statistics (a process killed while saving
+    leaves the newest one incomplete)."""
     found = sorted((run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"), key=checkpoint_steps)
-    complete = [path for path in found if zipfile.is_zipfile(path) and (not normalized or normalizer_path(path).is_file())]
+    return [path for path in found if zipfile.is_zipfile(path) and (not normalized or normalizer_path(path).is_file())]
+
+
+def latest_checkpoint(run_dir: Path, normalized: bool = False) -> Path:
+    """The complete checkpoint with the most steps (:func:`complete_checkpoints`)."""
+    complete = complete_checkpoints(run_dir, normalized)
     if not complete:
         raise ModelLoadError(f"{run_dir / 'checkpoints'}: no complete checkpoint to resume from")
     return complete[-1]
+
+
+def checkpoint_problem(path: Path, normalized: bool) -> str | None:
+    """Why a complete checkpoint cannot be loaded (a whole zip around a damaged ``policy.pth``,
+    statistics cut short), or None if it loads."""
+    try:
+        data, _, _ = load_from_zip_file(path, device="cpu", print_system_info=False)
+        if normalized:
+            load_normalizer(normalizer_path(path), data["observation_space"].shape)
+    except ModelLoadError as err:
+        return str(err)
+    except Exception as err:  # noqa: BLE001  (torch and pickle raise many types for damaged bytes)
+        return f"{path}: {type(err).__name__}"
+    return None
+
+
+def resumable_checkpoint(run_dir: Path, normalized: bool) -> Path:
+    """The newest complete checkpoint that loads. Falling back past damaged ones is said on stderr
+    in one line: the run then repeats the steps since the one it resumes from."""
+    damaged: list[str] = []
+    for path in reversed(complete_checkpoints(run_dir, normalized)):
+        problem = checkpoint_problem(path, normalized)
+        if problem is None:
+            if damaged:
+                print(f"warning: resuming from {path.name}: the newer checkpoint{'s' * (len(damaged) > 1)} "
+                      f"cannot be loaded ({'; '.join(damaged)})", file=sys.stderr, flush=True)
+            return path
+        damaged.append(problem)
+    if damaged:
+        raise ModelLoadError(f"{run_dir / 'checkpoints'}: no checkpoint loads ({damaged[0]})")
+    raise ModelLoadError(f"{run_dir / 'checkpoints'}: no complete checkpoint to resume from")
 
 
 def save_checkpoint(model: BaseAlgorithm, run_dir: Path) -> Path:
@@ -264,42 +335,51 @@ def write_run_json(run_dir: Path, config: dict[str, Any], sessions: list[dict[st
     (run_dir / "run.json").write_text(json.dumps(record, indent=2))
 
 
-def build_model(config: dict[str, Any], train_env: VecEnv, run_dir: Path, resume_from: Path | None) -> BaseAlgorithm:
+def build_model(config: dict[str, Any], train_env: VecEnv, resume_from: Path | None) -> BaseAlgorithm:
     """A new model from the hyperparameters, or the checkpoint ``resume_from`` with its buffer."""
     algo, hp = config["algo"], dict(config["hyperparams"])
-    policy = hp.get("policy", "MlpPolicy")
+    policy = hp.get("policy", POLICY)
     hp = {k: v for k, v in hp.items() if k not in RUN_KEYS}
     if resume_from is None:
         where = f"{config['hyperparams_file']} [{config['env']}]"
         try:
             kwargs = algo_kwargs(hp, train_env.action_space.shape[0])
-            return ALGOS[algo](policy, train_env, seed=config["seed"], device="cpu", verbose=0,
-                               tensorboard_log=str(run_dir / "tb"), **kwargs)
-        except (TypeError, ValueError, KeyError) as err:  # an unknown or malformed hyperparameter
+            return ALGOS[algo](policy, train_env, seed=config["seed"], device="cpu", verbose=0, **kwargs)
+        except (TypeError, ValueError, KeyError, AssertionError) as err:  # an unknown or malformed hyperparameter
             raise ValueError(f"{where}: {algo} does not accept these hyperparameters ({err})") from err
-    model = ALGOS[algo].load(resume_from, env=train_env, device="cpu", tensorboard_log=str(run_dir / "tb"))
+    model = ALGOS[algo].load(resume_from, env=train_env, device="cpu")
     buffer = resume_from.with_name(f"{CHECKPOINT_PREFIX}_replay_buffer_{checkpoint_steps(resume_from)}_steps.pkl")
     if buffer.is_file():
         model.load_replay_buffer(buffer)
     return model
 
 
-def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = False, progress_bar: bool = False,
-          on_evaluation: EvaluationHook | None = None) -> dict[str, Any]:
-    """Train (or, with ``resume``, continue) the run ``config`` in ``run_dir``; the session record.
+@dataclass
+class Setup:
+    """A session's envs and model, made before anything is written (see :func:`prepare`)."""
 
-    Ctrl-C or SIGTERM (see :func:`stop_on_signals`) save a checkpoint and end the session as
-    ``interrupted``; an exception from ``on_evaluation`` propagates after the run is recorded.
-    """
+    model: BaseAlgorithm
+    train_env: VecEnv
+    eval_env: VecEnv
+    resumed_from: Path | None
+
+    def close(self) -> None:
+        self.train_env.close()
+        self.eval_env.close()
+
+
+def prepare(config: dict[str, Any], resume_dir: Path | None = None) -> Setup:
+    """The envs and the model: new, or continuing the run in ``resume_dir`` from its newest
+    checkpoint that loads. Nothing is written, so whatever the algorithm refuses is refused
+    before the run has a folder (or ``runs/latest`` points at one)."""
     algo, env_id, seed = config["algo"], config["env"], config["seed"]
     hp = config["hyperparams"]
     n_envs, normalize, gamma = int(hp.get("n_envs", 1)), normalize_kwargs(hp.get("normalize", False)), hp.get("gamma", 0.99)
-    resume_from = latest_checkpoint(run_dir, normalize is not None) if resume else None
+    resume_from = resumable_checkpoint(resume_dir, normalize is not None) if resume_dir is not None else None
     offset = checkpoint_steps(resume_from) if resume_from else 0
     total = whole_rollouts(algo, int(hp["n_timesteps"]), hp)
     if resume_from is not None and offset >= total:
-        raise ValueError(f"{run_dir} has trained its {offset} steps: give --timesteps above {offset} to extend it")
-    run_dir.mkdir(parents=True, exist_ok=True)
+        raise ValueError(f"{resume_dir} has trained its {offset} steps: give --timesteps above {offset} to extend it")
     one_thread_per_process()
     set_random_seed(seed)
 
@@ -307,22 +387,38 @@ def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = Fa
     train_env = make_env(env_id, n_envs, seed + offset, config["vec_env"], normalize, gamma, training=True)
     eval_env = make_env(env_id, max(1, min(EVAL_ENVS, config["eval_episodes"])), seed + EVAL_SEED_OFFSET,
                         config["vec_env"], normalize, gamma, training=False)
-    if resume_from is not None and normalize is not None:
-        train_env = VecNormalize.load(str(normalizer_path(resume_from)), train_env.venv)
     try:
-        model = build_model(config, train_env, run_dir, resume_from)
+        if resume_from is not None and normalize is not None:
+            train_env = VecNormalize.load(str(normalizer_path(resume_from)), train_env.venv)
+        return Setup(build_model(config, train_env, resume_from), train_env, eval_env, resume_from)
+    except BaseException:
+        train_env.close()
+        eval_env.close()
+        raise
+
+
+def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: str, progress_bar: bool = False,
+                on_evaluation: EvaluationHook | None = None) -> dict[str, Any]:
+    """Train ``setup``'s model in ``run_dir`` (made if missing) to the budget; the session record.
+    Closes the envs."""
+    model, seed, n_envs = setup.model, config["seed"], int(config["hyperparams"].get("n_envs", 1))
+    total = whole_rollouts(config["algo"], int(config["hyperparams"]["n_timesteps"]), config["hyperparams"])
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        model.tensorboard_log = str(run_dir / "tb")
         callbacks: list[BaseCallback] = []
         if config["save_freq"] > 0:
             callbacks.append(UninterruptedCheckpoints(max(config["save_freq"] // n_envs, 1), str(run_dir / "checkpoints"),
                                                 CHECKPOINT_PREFIX, save_replay_buffer=True, save_vecnormalize=True))
         if config["eval_freq"] > 0:
-            eval_env.seed(seed + EVAL_SEED_OFFSET)
+            setup.eval_env.seed(seed + EVAL_SEED_OFFSET)
             callbacks.append(EvalCallback(
-                eval_env, n_eval_episodes=config["eval_episodes"], eval_freq=max(config["eval_freq"] // n_envs, 1),
-                log_path=str(run_dir), best_model_save_path=None, deterministic=True, verbose=0,
+                setup.eval_env, n_eval_episodes=config["eval_episodes"],
+                eval_freq=max(config["eval_freq"] // n_envs, 1), log_path=str(run_dir), best_model_save_path=None,
+                deterministic=True, verbose=0,
                 callback_after_eval=KeepBestBySuccess(run_dir, seed + EVAL_SEED_OFFSET, on_evaluation)))
 
-        sessions = read_run(run_dir)["sessions"] if resume_from else []
+        sessions = read_run(run_dir)["sessions"] if setup.resumed_from else []
         session = {"command": command, "status": "running", "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                    "start_timesteps": model.num_timesteps}
         sessions.append(session)
@@ -330,7 +426,7 @@ def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = Fa
         start, status = time.perf_counter(), "finished"
         try:
             model.learn(total - model.num_timesteps, callback=callbacks, tb_log_name="tb",
-                        reset_num_timesteps=resume_from is None, progress_bar=progress_bar)
+                        reset_num_timesteps=setup.resumed_from is None, progress_bar=progress_bar)
         except KeyboardInterrupt:
             status = "interrupted"
         except BaseException:
@@ -344,9 +440,19 @@ def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = Fa
                            wall_time_s=round(time.perf_counter() - start, 1))
             write_run_json(run_dir, config, sessions)
     finally:
-        train_env.close()
-        eval_env.close()
+        setup.close()
     return session
+
+
+def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = False, progress_bar: bool = False,
+          on_evaluation: EvaluationHook | None = None) -> dict[str, Any]:
+    """Train (or, with ``resume``, continue) the run ``config`` in ``run_dir``; the session record.
+
+    Ctrl-C or SIGTERM (see :func:`stop_on_signals`) save a checkpoint and end the session as
+    ``interrupted``; an exception from ``on_evaluation`` propagates after the run is recorded.
+    """
+    return run_session(prepare(config, run_dir if resume else None), config, run_dir, command, progress_bar,
+                       on_evaluation)
 
 
 def header(config: dict[str, Any], run_dir: Path, resume: bool) -> str:
@@ -359,29 +465,44 @@ def header(config: dict[str, Any], run_dir: Path, resume: bool) -> str:
             f"{config['hyperparams_file']} -> {run_dir}")
 
 
+def check_run_folder(args: argparse.Namespace) -> None:
+    """Refuse now, not after the header: a folder that holds a run already, or where nothing can
+    be written (under a regular file, read-only)."""
+    if args.resume is not None:
+        for folder in (args.resume, args.resume / "checkpoints"):
+            cli.check_writable_dir(folder, "--resume")
+    elif args.out is not None:
+        if (args.out / "run.json").exists():
+            raise ValueError(f"{args.out} holds a run already: --resume {args.out} continues it, or choose another --out")
+        cli.check_writable_dir(args.out, "--out")
+    else:
+        cli.check_writable_dir(RUNS_ROOT, "the default --out")
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     try:
         args = parse_args(argv)
         config = run_config(args)
         check_hyperparams(config)
-        if args.resume is not None:
-            run_dir = args.resume
-        elif args.out is not None:
-            run_dir = args.out
-            if (run_dir / "run.json").exists():
-                raise ValueError(f"{run_dir} holds a run already: --resume {run_dir} continues it, "
-                                 "or choose another --out")
-        else:
-            run_dir = new_run_dir(config["env"], config["algo"], config["seed"])
-        print(header(config, run_dir, args.resume is not None), flush=True)
-        if args.resume is None and args.out is None:
-            run_dir.mkdir(parents=True, exist_ok=True)
-            point_latest(run_dir)
-        session = train(config, run_dir, shlex.join(["python", "train.py", *argv]), resume=args.resume is not None,
-                        progress_bar=not args.no_progress_bar and sys.stderr.isatty())
-    except (ModelLoadError, ValueError) as err:
+        check_run_folder(args)
+        setup = prepare(config, args.resume)
+    except (ModelLoadError, ValueError) as err:  # cli.UsageError is a ValueError
         return cli.fail(err)
+    # Only now, with everything checked and the model built, is anything written.
+    try:
+        run_dir = args.resume or args.out or new_run_dir(config["env"], config["algo"], config["seed"])
+    except OSError as err:  # the folder changed since it was checked
+        setup.close()
+        return cli.fail(f"cannot create the run folder ({err})")
+    print(header(config, run_dir, args.resume is not None), flush=True)
+    try:
+        if args.resume is None and args.out is None:
+            point_latest(run_dir)
+        session = run_session(setup, config, run_dir, shlex.join(["python", "train.py", *argv]),
+                              progress_bar=not args.no_progress_bar and sys.stderr.isatty())
+    except OSError as err:  # writable when checked, but not now (disk full, removed): keep what was written
+        return cli.fail(f"{run_dir}: {err} (the files written before it are kept)")
     status = session["status"]
     print(f"{status}: {session['timesteps']:,} steps in {session['wall_time_s']:.0f} s -> {run_dir}")
     if status == "interrupted":

@@ -4,7 +4,8 @@ the success rate of train.py's periodic evaluations, in the grid's storage.
     python -m agents.tuning --algo sac --env LightSailDeepDish-v0 --trials 40
     python train.py --algo sac --env LightSailDeepDish-v0 --config runs/tuning/<study>/best.yml
 
-Each trial is a train.py run (``runs/tuning/<study>/trial-<N>``) whose evaluations report the
+Each trial is a train.py run (``runs/tuning/<study>/trial-<N>``, numbered ``_2``, … if another
+study of that name, in another storage, left one there) whose evaluations report the
 success rate to Optuna; a trial below the median of earlier trials at the same step is
 pruned. ``--trials`` counts finished trials over every worker: start the same command on more
 machines with ``--storage postgresql://…`` to search in parallel. The best trial is written as a
@@ -98,7 +99,10 @@ def objective(algo: str, env_id: str, settings: dict[str, Any], runs_dir: Path):
             if trial.should_prune():
                 raise optuna.TrialPruned(f"success {success_rate:.1%} at {timesteps} steps")
 
-        run_dir = runs_dir / f"trial-{trial.number}"
+        # A fresh folder: one left by another study of this name (in another storage) holds its
+        # best_model.json, which this trial would read as its own score.
+        run_dir = training.fresh_dir(runs_dir / f"trial-{trial.number}")
+        trial.set_user_attr("run_dir", str(run_dir))
         training.train(config, run_dir, f"python -m agents.tuning (trial {trial.number})", on_evaluation=report)
         return training.read_best(run_dir)["success_rate"]
     return run
@@ -127,20 +131,21 @@ def tune(algo: str, env_id: str, storage: str, study_name: str, trials: int, set
 
 def main(argv: list[str] | None = None) -> int:
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
-    parser = cli.Parser(prog="python -m agents.tuning", description=__doc__.splitlines()[0],
-                        formatter_class=cli.HelpFormatter)
-    parser.add_argument("--algo", required=True, choices=sorted(ALGOS))
-    parser.add_argument("--env", default="LightSail-v0", choices=list(TASKS), metavar="ID")
-    parser.add_argument("--trials", type=training.positive_int, default=40, help="finished trials, over all workers")
-    parser.add_argument("--timesteps", type=training.positive_int, help="budget of each trial (default: the shipped one)")
-    parser.add_argument("--evaluations", type=training.positive_int, default=10, help="evaluations (pruning points) per trial")
-    parser.add_argument("--eval-episodes", type=training.positive_int, default=50)
-    parser.add_argument("--seed", type=int, default=0)
+    parser = cli.Parser(prog="python -m agents.tuning", description=cli.describe(__doc__),
+                        formatter_class=cli.HelpFormatter, epilog=f"env ids: {', '.join(TASKS)}")
+    parser.add_argument("--algo", required=True, choices=sorted(ALGOS), help="the algorithm to tune")
+    parser.add_argument("--env", default="LightSail-v0", choices=list(TASKS), metavar="ID", help="task id")
+    parser.add_argument("--trials", type=cli.positive_int, default=40, help="finished trials, over all workers")
+    parser.add_argument("--timesteps", type=cli.positive_int, help="budget of each trial (default: the shipped one)")
+    parser.add_argument("--evaluations", type=cli.positive_int, default=10, help="evaluations (pruning points) per trial")
+    parser.add_argument("--eval-episodes", type=cli.positive_int, default=50, help="episodes per evaluation")
+    parser.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the trials and of the sampler")
     parser.add_argument("--storage", default=grid.DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
     parser.add_argument("--study", help="study name (default: tune-<algo>-<env>)")
-    parser.add_argument("--runs-dir", type=Path, default=Path("runs/tuning"))
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs/tuning"), help="where trials keep their files")
     try:
         args = parser.parse_args(argv)
+        cli.check_writable_dir(args.runs_dir, "--runs-dir")
     except cli.UsageError as err:
         return cli.fail(err)
     timesteps = args.timesteps or int(load_hyperparams(args.algo, args.env)["n_timesteps"])
@@ -148,7 +153,10 @@ def main(argv: list[str] | None = None) -> int:
                 "eval_episodes": args.eval_episodes, "seed": args.seed}
     study_name = args.study or f"tune-{args.algo}-{args.env}"
     optuna.logging.set_verbosity(optuna.logging.INFO)
-    study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings, args.runs_dir / study_name)
+    try:
+        study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings, args.runs_dir / study_name)
+    except cli.UsageError as err:  # a storage that cannot be opened
+        return cli.fail(err)
     out = args.runs_dir / study_name / "best.yml"
     out.write_text(best_yaml(study, args.env))
     print(f"best: trial {study.best_trial.number}, success {study.best_value:.1%} -> {out}\n"

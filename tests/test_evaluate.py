@@ -269,3 +269,35 @@ def test_agent_styles_differ_so_coinciding_curves_stay_visible() -> None:
         assert len({s[key] for s in styles.values()}) == 3
     widths = [s["lw"] for s in styles.values()]
     assert widths == sorted(widths, reverse=True)  # the later, thinner curve is drawn on top
+
+
+# ---------------------------------------------------------------------- runs/latest, another task, help
+def test_a_model_reached_through_a_link_is_recorded_by_its_run(model: Path, tmp_path: Path) -> None:
+    """``runs/latest/best_model.zip`` was reported as ``ppo:latest/best_model``: which run was that?"""
+    (tmp_path / "latest").symlink_to(model.parent, target_is_directory=True)
+    out = tmp_path / "report"
+    assert evaluate.main(["--agent", str(tmp_path / "latest" / model.name), "--episodes", "2", "--out", str(out),
+                          "--no-progress-bar"]) == 0
+    report = _strict_json(out / "report.json")
+    assert list(report["agents"]) == [f"ppo:{model.parent.name}/{model.stem}"]
+    assert report["config"]["agents"] == [str(model.resolve())]
+
+
+def test_a_model_of_another_observation_shape_names_its_task(model: Path, tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    err = _refused(["--env", "LightSail3D-v0", "--agent", str(model), "--out", str(tmp_path / "report")],
+                   capsys, monkeypatch)
+    assert "trained on observations of shape (5,), this env has (9,)" in err
+    assert "this model was trained on LightSail-v0: pass --env LightSail-v0" in err
+
+
+def test_help_has_no_restructuredtext_markup(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit):
+        evaluate.main(["--help"])
+    text = capsys.readouterr().out
+    assert "``" not in text and "--agent is passive, lqr, lqg" in text
+
+
+def test_a_diverged_pointing_has_no_unit() -> None:
+    assert evaluate.fmt_rad(None) == "diverged" and evaluate.fmt_rad(1.5e-10) == "1.50e-10 rad"

@@ -171,3 +171,95 @@ def test_two_workers_run_every_cell_once_and_finish_a_killed_workers_cell(backen
     sessions = grid.training.read_run(Path(finisher.user_attrs["run_dir"]))["sessions"]
     assert sessions[0]["status"] == "running"  # the killed worker's session never ended
     assert sessions[-1]["start_timesteps"] > 0 and sessions[-1]["timesteps"] >= 12288  # resumed, not restarted
+
+
+# ---------------------------------------------------------------------- refusals
+def _snapshot(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["run", "--grace", "1", "--heartbeat", "30"], "--grace: must be at least 2 × --heartbeat (30 s), got 1"),
+    (["run", "--envs", "LightSail-v0", "LightSail-v0"], "--envs: LightSail-v0 given more than once"),
+    (["run", "--algos", "ppo", "ppo"], "--algos: ppo given more than once"),
+    (["run", "--seeds", "0", "0"], "--seeds: 0 given more than once"),
+    (["run", "--seeds", "-1"], "--seeds: must be >= 0, got -1"),
+    (["run", "--default-seeds", "-2"], "--default-seeds: must be >= 0, got -2"),
+    (["redo", "--agents", "lqr", "lqr"], "--agents: lqr given more than once"),
+    (["render", "--readme", "missing.md"], "--readme missing.md: cannot read it"),
+    (["render", "--readme", "plain.md"], "--readme plain.md: no <!-- grid-table:start -->"),
+    (["status"], "no grid yet (runs/grid.db does not exist): python -m agents.grid run creates it"),
+    (["render"], "no grid yet"),
+    (["status", "--storage", "bogus://x"], "--storage bogus://x: cannot open it (NoSuchModuleError"),
+    (["status", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),
+    (["run", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),
+    (["run", "--storage", "sqlite:///plain.md/grid.db"], "plain.md is not a directory"),
+])
+def test_refused_arguments_are_one_line_and_write_nothing(argv: list[str], message: str, tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch,
+                                                          capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "plain.md").write_text("no markers\n")
+    (tmp_path / "damaged.db").write_bytes(b"not a database, " * 100)
+    before = _snapshot(tmp_path)
+    assert grid.main(argv) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert err.startswith("error: ") and message in err and "\n" not in err and captured.out == ""
+    assert _snapshot(tmp_path) == before
+
+
+def test_a_study_that_does_not_exist_says_how_to_make_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "runs").mkdir()
+    optuna.create_study(storage=grid.DEFAULT_STORAGE, study_name="other")
+    assert grid.main(["status", "--study", "planar"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--study planar: no such grid in the storage (it has ['other'])" in err
+    assert "python -m agents.grid run --study planar creates it" in err and "\n" not in err
+
+
+# ---------------------------------------------------------------------- a cell taken from a live worker
+def test_a_cell_taken_from_its_live_worker_is_recorded_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                           capsys: pytest.CaptureFixture) -> None:
+    """Its trial failed as stale (heartbeats later than --grace) while the worker ran it: the
+    worker exited with "Trial#… has already finished". Now it leaves the cell to the new trial."""
+    monkeypatch.chdir(tmp_path)
+    taken: list[int] = []
+
+    def run_cell(cell: grid.Cell, trial: optuna.Trial, run_dir: Path, settings: dict) -> dict:
+        if not taken:  # what fail_stale_trials in another worker does to a trial it finds stale
+            taken.append(trial.number)
+            storage = trial.study._storage
+            storage.set_trial_state_values(trial._trial_id, TrialState.FAIL)
+            storage.get_heartbeat_stale_trial_callback()(trial.study, storage.get_trial(trial._trial_id))
+        return {"summary": {"success_rate": 1.0, "terminal_pointing_rad": {"median": None}}}
+
+    monkeypatch.setattr(grid, "run_cell", run_cell)
+    assert grid.main(["run", "--envs", "LightSail-v0", "--algos", "ppo", "--seeds", "0", "--default-seeds",
+                      *TINY]) == 0
+    out = capsys.readouterr().out
+    assert "was handed to another worker" in out and "median pointing diverged\n" in out
+    trials = load(grid.DEFAULT_STORAGE).get_trials()
+    complete = Counter(t.user_attrs["cell"] for t in trials if t.state == TrialState.COMPLETE)
+    assert set(complete.values()) == {1} and len(complete) == 4
+    assert trials[taken[0]].state == TrialState.FAIL and "summary" not in trials[taken[0]].user_attrs
+
+
+def test_a_second_trial_of_a_running_cell_waits_for_its_lock(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    import threading
+
+    run_dir, order = tmp_path / "study" / "cell", []
+    with grid.cell_lock(run_dir, "cell"):
+        def take() -> None:
+            with grid.cell_lock(run_dir, "cell"):
+                order.append("second")
+        second = threading.Thread(target=take)
+        second.start()
+        second.join(timeout=1)
+        assert second.is_alive()  # waiting
+        order.append("first done")
+    second.join(timeout=10)
+    assert order == ["first done", "second"]
+    assert "another worker still runs this cell; waiting" in capsys.readouterr().out

@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 import zipfile
 from pathlib import Path
@@ -102,6 +103,15 @@ def test_bad_arguments_are_a_one_line_error(argv: list[str], message: str, capsy
     ("  n_timesteps: 100\n  learning_rat: 0.1\n", "ppo has no hyperparameter learning_rat"),
     ("  n_timesteps: 100\n  policy_kwargs: \"dict(net_arch=[8], activation_fn=nn.Nope)\"\n", "Nope"),
     ("  n_timesteps: 100\n  noise_type: pink\n", "noise_type"),
+    ("  n_timesteps: 100\n  n_steps: 0\n", "n_steps must be a whole number >= 1, got 0"),
+    ("  n_timesteps: 100\n  n_steps: 1\n  n_envs: 1\n", "n_steps × n_envs (PPO's rollout) must be >= 2, got 1 × 1"),
+    ("  n_timesteps: 100\n  batch_size: -3\n", "batch_size must be a whole number >= 2, got -3"),
+    ("  n_timesteps: 100\n  n_epochs: 0\n", "n_epochs must be a whole number >= 1, got 0"),
+    ("  n_timesteps: 100\n  n_epochs: 2.5\n", "n_epochs must be a whole number >= 1, got 2.5"),
+    ("  n_timesteps: 100\n  policy: NopePolicy\n", "policy must be MlpPolicy"),
+    ("  - n_timesteps: 100\n", "the entry must be a mapping of hyperparameters"),
+    # Passes the checks, refused by SB3's constructor: the model is built before any folder is made.
+    ("  n_timesteps: 100\n  clip_range_vf: -1.0\n", "ppo does not accept these hyperparameters"),
 ])
 def test_a_bad_hyperparameter_entry_is_a_one_line_error_and_writes_nothing(
         entry: str, message: str, tmp_path: Path, capsys: pytest.CaptureFixture,
@@ -112,6 +122,115 @@ def test_a_bad_hyperparameter_entry_is_a_one_line_error_and_writes_nothing(
     err = capsys.readouterr().err.strip()
     assert message in err and "bad.yml [LightSail-v0]" in err and "\n" not in err
     assert not (tmp_path / "runs").exists()
+
+
+def test_a_refused_configuration_leaves_runs_latest_alone(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "runs/old").mkdir(parents=True)
+    (tmp_path / "runs/latest").symlink_to("old")
+    (tmp_path / "bad.yml").write_text("LightSail-v0:\n  n_timesteps: 100\n  clip_range_vf: -1.0\n")
+    assert train.main(["--algo", "ppo", "--config", "bad.yml", "--no-progress-bar"]) == 2
+    assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == ["latest", "old"]
+    assert os.readlink(tmp_path / "runs/latest") == "old"
+    assert capsys.readouterr().out == ""
+
+
+def test_runs_started_at_once_get_a_folder_each(tmp_path: Path) -> None:
+    """Two identical train.py commands at once shared runs/<env>-<algo>-<seed>: the second looked
+    for a run.json before the first had written one."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    (tmp_path / "LightSail-v0-ppo-0").mkdir()  # just made by a run that has not written run.json yet
+    with ThreadPoolExecutor(4) as pool:
+        made = list(pool.map(lambda _: train.new_run_dir("LightSail-v0", "ppo", 0, tmp_path), range(8)))
+    assert len(set(made)) == 8 and tmp_path / "LightSail-v0-ppo-0" not in made
+    assert all(path.is_dir() and not any(path.iterdir()) for path in made)
+
+
+def test_the_header_names_the_folder_the_run_got(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "runs/LightSail-v0-ppo-0").mkdir(parents=True)
+    assert train.main(["--algo", "ppo", "--timesteps", "64", *FAST, "--eval-freq", "0", "--n-envs", "1",
+                       "--config", str(ROOT / "agents/hyperparams/ppo.yml")]) == 0
+    assert capsys.readouterr().out.splitlines()[0].endswith("-> runs/LightSail-v0-ppo-0_2")
+    assert os.readlink(tmp_path / "runs/latest") == "LightSail-v0-ppo-0_2"
+    assert not any((tmp_path / "runs/LightSail-v0-ppo-0").iterdir())
+
+
+def _refused(argv: list[str], capsys: pytest.CaptureFixture) -> str:
+    assert train.main(argv) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert captured.out == "" and err.startswith("error: ") and "\n" not in err  # before the header
+    return err
+
+
+def test_an_out_under_a_regular_file_is_refused_before_the_header(tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture) -> None:
+    (tmp_path / "file").write_text("")
+    err = _refused(["--algo", "ppo", "--out", str(tmp_path / "file/run"), *FAST], capsys)
+    assert f"--out {tmp_path / 'file/run'}: {tmp_path / 'file'} is not a directory" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+def test_a_working_folder_nothing_can_be_written_in_is_refused_before_the_header(
+        capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    try:
+        with tempfile.NamedTemporaryFile(dir="/sys"):
+            pytest.skip("/sys is writable here")
+    except OSError:
+        pass
+    monkeypatch.chdir("/sys")  # sysfs refuses new files, even to root (a chmod would not stop root)
+    assert "the default --out runs: cannot write in ." in _refused(["--algo", "ppo", *FAST], capsys)
+    assert not Path("/sys/runs").exists()
+
+
+def test_resume_of_a_run_that_cannot_be_written_is_refused_before_the_header(
+        tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "run"
+    assert train.main(["--algo", "ppo", "--timesteps", "256", "--out", str(out), *FAST]) == 0
+    capsys.readouterr()
+    real = tempfile.NamedTemporaryFile
+
+    def read_only(*args: object, dir: object = None, **kwargs: object):  # noqa: A002  (tempfile's name)
+        if Path(str(dir)).resolve() == out.resolve():  # as a read-only folder does (root ignores chmod)
+            raise PermissionError(13, "Permission denied")
+        return real(*args, dir=dir, **kwargs)
+    monkeypatch.setattr(tempfile, "NamedTemporaryFile", read_only)
+    before = sorted(str(p) for p in out.rglob("*"))
+    err = _refused(["--resume", str(out), "--timesteps", "512", "--no-progress-bar"], capsys)
+    assert f"--resume {out}: cannot write in {out} (Permission denied)" in err
+    assert sorted(str(p) for p in out.rglob("*")) == before
+
+
+def test_resume_falls_back_past_damaged_checkpoints_and_says_so(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "run"
+    assert train.main(["--algo", "ppo", "--timesteps", "1024", "--out", str(out), *FAST, "--eval-freq", "0"]) == 0
+    checkpoints = out / "checkpoints"
+    newest = checkpoints / "rl_model_1024_steps.zip"
+    with zipfile.ZipFile(newest) as whole:  # a whole zip around a damaged policy
+        entries = {name: whole.read(name) for name in whole.namelist()}
+    with zipfile.ZipFile(newest, "w") as damaged:
+        for name, data in entries.items():
+            damaged.writestr(name, b"garbage" if name == "policy.pth" else data)
+    stats = checkpoints / "rl_model_vecnormalize_768_steps.pkl"
+    stats.write_bytes(stats.read_bytes()[:40])  # statistics cut short
+    capsys.readouterr()
+    assert train.main(["--resume", str(out), "--timesteps", "1536", "--no-progress-bar"]) == 0
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("warning: resuming from rl_model_512_steps.zip: the newer checkpoints cannot be loaded")
+    assert "\n" not in err and "rl_model_1024_steps.zip" in err and "rl_model_vecnormalize_768_steps.pkl" in err
+    assert train.read_run(out)["sessions"][-1]["start_timesteps"] == 512
+
+
+def test_help_shows_the_defaults(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit):
+        train.main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "task id (default: LightSail-v0)" in text
+    assert "(default: the hyperparameter entry's n_timesteps)" in text
 
 
 def test_a_new_run_never_writes_into_an_old_one(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,

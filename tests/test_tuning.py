@@ -36,4 +36,19 @@ def test_a_trial_below_the_pruner_stops_at_its_first_evaluation(tmp_path: Path) 
                         pruner=everything)
     (trial,) = study.get_trials()
     assert trial.state == TrialState.PRUNED and len(trial.intermediate_values) == 1
-    assert training.read_run(tmp_path / "runs/trial-0")["sessions"][0]["status"] == "stopped"
+    assert training.read_run(Path(trial.user_attrs["run_dir"]))["sessions"][0]["status"] == "stopped"
+
+
+def test_a_study_never_reuses_another_studys_trial_folder(tmp_path: Path) -> None:
+    """A second study of the same name in another storage trained its trial 0 into the first's
+    trial-0, read that one's best_model.json and reported its score as its own."""
+    old = tmp_path / "runs/trial-0"
+    old.mkdir(parents=True)
+    record = '{"timesteps": 1, "success_rate": 0.99, "mean_return": 1e9, "episodes": 2}'
+    (old / "best_model.json").write_text(record)
+    study = tuning.tune("ppo", "LightSail-v0", f"sqlite:///{tmp_path}/other.db", "t", 1, SETTINGS, tmp_path / "runs")
+    (trial,) = study.get_trials()
+    assert trial.value != 0.99
+    assert (old / "best_model.json").read_text() == record and sorted(p.name for p in old.iterdir()) == ["best_model.json"]
+    assert trial.user_attrs["run_dir"] == str(tmp_path / "runs/trial-0_2")
+    assert trial.value == training.read_best(tmp_path / "runs/trial-0_2")["success_rate"]
