@@ -179,7 +179,7 @@ class LightSail3DEnv(LightSailEnv):
 
     * ``LightSail3DRealistic-v1`` (lightsail-gym 0.2.0): the realistic task in a Gaussian beam of
       waist ``0.8 a`` instead of a flat-top spot of exactly the aperture's size, whose edge on the
-      rim made the force kinked at zero offset (the linear window ~20 % of the amplitude off the
+      rim made the force kinked at zero offset (the linear window 31 % of the amplitude off the
       rigid body, the coast's phase lost, the sail's lateral stiffness gone beyond ``L0``); its
       ground jitter recomputed for that beam by the same rule (docs/physics.md §14, ``sail_env.tasks``).
     * v0 (lightsail-gym 0.2.0): the end state of a noisy coast (and of the pre-control flight) is
