@@ -10,6 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sail_env.core.delay import delay_steps
+from sail_env.core.plant import Plant
 from sail_env.physics.config import PRESETS, SailConfig, check_below_light_speed, real_number
 from sail_env.physics.mission import one_way_light_delay_s
 from sail_env.physics.plant import PlanarPlant
@@ -139,8 +140,8 @@ class EpisodeSpec:
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
         self.config = config
         self.disturbances = disturbances
-        self.plant = PLANTS[type(config)](config, disturbances.parameter_spread, disturbances.beam_jitter_m,
-                                          disturbances.push_noise)
+        self.plant: Plant = PLANTS[type(config)](config, disturbances.parameter_spread, disturbances.beam_jitter_m,
+                                                 disturbances.push_noise)
         n = self.plant.n_states
         widths = finite_nonnegative(start_half_widths, "start_half_widths", n)
         if disturbances.any_sensor_noise and len(disturbances.sensor_noise_std) != n:

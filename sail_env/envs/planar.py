@@ -242,7 +242,7 @@ def initial_state(given: Mapping[str, float], spec: EpisodeSpec) -> np.ndarray:
     Keys are the plant's state names, and any of its ``fixed_state`` (quantities the task
     fixes, such as the 3D sail's spin), which must then have the task's value.
     """
-    names, fixed = spec.plant.state_names, getattr(spec.plant, "fixed_state", {})
+    names, fixed = spec.plant.state_names, spec.plant.fixed_state
     if not isinstance(given, Mapping):
         raise ValueError(f"initial_state must be a dict with keys among {(*names, *fixed)}, got {given!r}")
     unknown = set(given) - set(names) - set(fixed)

@@ -16,6 +16,9 @@ product.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
+from types import MappingProxyType
+
 import numpy as np
 
 from sail_env.physics.config import SailConfig, moment_of_inertia
@@ -106,6 +109,8 @@ class LinearPlant:
     biased = False
     #: State rows a random impact kicks (:meth:`impact_rate_and_std`); empty: no impacts.
     impulse_rows: tuple[int, ...] = ()
+    #: Quantities a start may name but not change (the 3D sail's spin); none by default.
+    fixed_state: Mapping[str, float] = MappingProxyType({})
 
     def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, beam_jitter_m: float,
                  push_noise: float) -> None:

@@ -1,0 +1,106 @@
+"""The plant contract: every member of a sail model that the episode core, the task spec, the envs
+and the controllers use, and nothing else.
+
+The core never looks behind this interface, so a new sail model is a class with these members
+(``PlanarPlant`` and ``RigidPlant`` in ``sail_env.physics`` are the two today).
+``tests/core/test_plant_contract.py`` checks both against it, and checks that the core, the envs
+and the agents use no member it does not declare.
+
+All arrays are batched over ``k`` environments: states ``x`` (k, n), inputs ``u`` (k, m), flight
+times ``t`` (k,). ``p`` is the :class:`~sail_env.physics.plant.PlantParams` of those environments'
+parameter draws. SI units throughout.
+
+| member | what the core asks |
+|---|---|
+| ``state_names``, ``state_units`` | the state's components and their units (``m``, ``m/s``, ``rad``, ``rad/s``: the observation's scales) |
+| ``input_names``, ``input_units``, ``input_ranges`` | the beam inputs; ``m``/``rad`` scale with the task's beam limits, other units by ``input_ranges`` (the input at action +1) |
+| ``fixed_state`` | quantities a start may name but not change (the 3D sail's spin) |
+| ``n_states``, ``n_inputs`` | their counts |
+| ``nominal`` | the nominal :class:`~sail_env.physics.linear.LinearModel` controllers design on |
+| ``constant_term`` | the nominal model's constant drive ``c`` in ``ds/dt = A s + B u + c`` (n,) |
+| ``rate_scale()`` | the nominal model's fastest rate [1/s]: the time scale of the observation |
+| ``start_limits()`` | the largest start (n,) inside the beam for every draw |
+| ``acceleration_m_s2``, ``max_acceleration_m_s2`` | the nominal and the largest axial acceleration (light delay, light-speed check) |
+| ``n_factors``, ``draw(rng)``, ``params(factors)`` | the per-episode parameter draw and the arrays it gives |
+| ``step(p, x, u, push)`` | one control step with ``u`` held and a relative push error per environment |
+| ``diverged(p, x)`` | whether each sail has left the beam or the small-angle regime |
+| ``peak_speed(p, x, u)`` | the largest lateral speed with ``u`` held (the reward's envelope) |
+| ``speed(p, t)``, ``pointing(p, x, t)`` | the axial speed and the flight direction ``|V⊥|/Vz`` if the beam is cut at ``t`` |
+| ``noisy``, ``jittered``, ``jitter_inputs``, ``jitter_std(p, t)`` | whether noise acts over the coast; the beam jitter's inputs and size in the window |
+| ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (dust): the rows they kick, their rate and size |
+| ``coast_pieces(p, duration)``, ``coast(p, x, u, duration, normals, start_s)`` | the propagation to cut-off with the noise's exact moments, and how many normals it draws |
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from sail_env.physics.linear import LinearModel
+from sail_env.physics.plant import PlantParams
+
+
+@runtime_checkable
+class Plant(Protocol):
+    """A batched linear sail model, as the episode core uses it (the module's table)."""
+
+    state_names: tuple[str, ...]
+    state_units: tuple[str, ...]
+    input_names: tuple[str, ...]
+    input_units: tuple[str, ...]
+    input_ranges: Mapping[str, float]
+    fixed_state: Mapping[str, float]
+    jitter_inputs: tuple[int, ...]
+    impulse_rows: tuple[int, ...]
+    nominal: LinearModel
+    noisy: bool
+
+    @property
+    def n_states(self) -> int: ...
+
+    @property
+    def n_inputs(self) -> int: ...
+
+    @property
+    def n_factors(self) -> int: ...
+
+    @property
+    def constant_term(self) -> np.ndarray: ...
+
+    @property
+    def jittered(self) -> bool: ...
+
+    @property
+    def acceleration_m_s2(self) -> float: ...
+
+    @property
+    def max_acceleration_m_s2(self) -> float: ...
+
+    def rate_scale(self) -> float: ...
+
+    def start_limits(self) -> np.ndarray: ...
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray: ...
+
+    def params(self, factors: np.ndarray) -> PlantParams: ...
+
+    def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray: ...
+
+    def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray: ...
+
+    def peak_speed(self, p: PlantParams, x: np.ndarray, u: np.ndarray) -> np.ndarray: ...
+
+    def speed(self, p: PlantParams, t: np.ndarray) -> np.ndarray: ...
+
+    def pointing(self, p: PlantParams, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
+
+    def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float: ...
+
+    def impact_rate_and_std(self, p: PlantParams, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray: ...
+
+    def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
+              normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...

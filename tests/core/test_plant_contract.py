@@ -1,0 +1,41 @@
+"""The plant contract (sail_env/core/plant.py) is complete and both sail models keep it."""
+
+import re
+from pathlib import Path
+
+import gymnasium as gym
+import pytest
+
+import sail_env  # noqa: F401
+from sail_env.core.plant import Plant
+
+ROOT = Path(__file__).parents[2]
+#: The code that must see a sail model only through the contract.
+USERS = [*sorted((ROOT / "sail_env" / "core").glob("*.py")), *sorted((ROOT / "sail_env" / "envs").glob("*.py")),
+         *sorted((ROOT / "agents").glob("*.py"))]
+
+
+def declared() -> set[str]:
+    return {name for klass in Plant.__mro__ if klass is not object
+            for name in (*vars(klass), *getattr(klass, "__annotations__", {})) if not name.startswith("_")}
+
+
+@pytest.mark.parametrize("env_id", ["LightSail-v0", "LightSailRealistic-v0", "LightSail3D-v0",
+                                    "LightSail3DRealistic-v1"])
+def test_both_sail_models_keep_the_contract(env_id):
+    plant = gym.make(env_id).unwrapped.episode_spec.plant
+    assert isinstance(plant, Plant)
+    missing = sorted(name for name in declared() if not hasattr(plant, name))
+    assert not missing
+
+
+def test_the_core_envs_and_agents_use_nothing_the_contract_does_not_declare():
+    """Every ``plant.<member>`` the core, the envs and the agents read is declared: a new use must
+    extend the contract (and its table), not reach past it."""
+    used = {}
+    for path in USERS:
+        for name in re.findall(r"\bplant\.([a-z_]\w*)", path.read_text()):
+            used.setdefault(name, set()).add(path.name)
+    assert used, "the scan found no use of the plant at all"
+    undeclared = {name: sorted(files) for name, files in used.items() if name not in declared()}
+    assert not undeclared
