@@ -59,9 +59,15 @@ def scale_grid(config: RigidSailConfig, top: float) -> tuple[np.ndarray, list[fl
         edges |= {x for r in radii if 0 < (x := math.log(config.aperture_radius_m / r)) < end}
     edges = sorted(edges)
     points = [np.zeros(1)]
+    step = math.log(SCALE_STEP)
     for lo, hi in zip(edges[:-1], edges[1:]):
         lo, hi = lo + EDGE_CLEARANCE, max(hi - EDGE_CLEARANCE, lo + EDGE_CLEARANCE)
-        points.append(np.linspace(lo, hi, max(2, math.ceil((hi - lo) / math.log(SCALE_STEP)) + 1)))
+        # Spaced from the piece's start, not spread over it: ``top`` comes from an integrated flight
+        # whose last digits differ between BLAS kernels (1e-9), and a grid spread over [lo, ln top]
+        # moved every point, and with them the interpolated matrices by 2e-10 (docs/physics.md §3).
+        # Now only the last interval, beyond every draw's reach, depends on ``top``.
+        inner = lo + step * np.arange(max(1, math.ceil((hi - lo) / step - 1e-9)))
+        points.append(np.append(inner, hi))
     return np.concatenate(points), edges[:-1]
 
 
