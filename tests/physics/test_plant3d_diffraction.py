@@ -18,7 +18,7 @@ from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights, fly
 from sail_env.physics.rigid3d.linearise import linearise
-from sail_env.physics.rigid3d.scales import ScaleTable, cleaned
+from sail_env.physics.rigid3d.scales import SCALE_STEP, ScaleTable, cleaned, scale_grid
 
 REALISTIC_SAIL = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
 #: The realistic task's spread of F/m: (1 ± 0.1) / (1 ∓ 0.1).
@@ -188,3 +188,17 @@ def test_coast_across_l0_matches_an_integration_of_the_time_varying_model():
     fixed, _ = plain.coast(plain.params(np.array([[mass, mass, power]])), x0[None], u[None],
                            np.array([end - start]), None, np.array([start]))
     assert np.hypot(*(fixed[0, 2:4] - reference[2:4])) > 0.3 * speed
+
+
+@pytest.mark.parametrize("profile", ["gaussian", "flat-top"])
+def test_the_widened_spots_grid_does_not_move_with_the_flights_last_digits(profile):
+    """The table's largest scale comes from an integrated flight whose last digits differ between
+    BLAS kernels (1e-9): every grid point but the last must stay put (docs/physics.md §3), or the
+    interpolated matrices, and the episodes, differ from machine to machine."""
+    config = REALISTIC_SAIL.replace(beam_profile=profile, beam_radius_m=0.8 * REALISTIC_SAIL.aperture_radius_m)
+    top = 5.3014955848511125
+    grid, kinks = scale_grid(config, top)
+    moved, moved_kinks = scale_grid(config, top * (1 + 1.2e-9))
+    np.testing.assert_array_equal(moved[:-1], grid[:-1])
+    assert moved_kinks == kinks
+    assert np.all(np.diff(grid[1:]) <= math.log(SCALE_STEP) + 1e-12)
