@@ -320,9 +320,9 @@ def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str,
         config = cell_config(cell, settings)
         result["hyperparams"] = config["hyperparams"]
         normalized = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
-        try:  # a cell put back in the queue continues from its newest complete checkpoint
-            reached = training.checkpoint_steps(training.latest_checkpoint(run_dir, normalized))
-        except ModelLoadError:
+        try:  # a cell put back in the queue continues from its newest checkpoint that loads
+            reached = training.checkpoint_steps(training.resumable_checkpoint(run_dir, normalized))
+        except ModelLoadError:  # none (a worker killed while writing its first one): start afresh
             reached = None
         resume, done = reached is not None, reached is not None and reached >= int(config["hyperparams"]["n_timesteps"])
         if not done:
