@@ -32,7 +32,6 @@ from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
 from sail_env.envs.planar import initial_state
 from sail_env.physics.config import SailConfig
-from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 
 class LightSailVectorEnv(VectorEnv):
@@ -82,6 +81,8 @@ class LightSailVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.core = EpisodeCore(spec, self.num_envs)
+        #: The episodes' arrays (:class:`~sail_env.core.state.EpisodeState`): what the env reads of the core.
+        self.state = self.core.state
         self._rngs: list[np.random.Generator] | None = None
         self._all = np.arange(self.num_envs)
         self._truncated = np.zeros(self.num_envs, dtype=bool)
@@ -116,27 +117,31 @@ class LightSailVectorEnv(VectorEnv):
         if given is not None:
             self.episode_spec.check_start(given, "initial_state")
         self.core.reset(self._all, self._rngs, given)
-        return self.core.observe(), {}
+        return self.core.observe(), {"state": self.state.x.copy(), "t": self._times()}
+
+    def _times(self) -> np.ndarray:
+        """Each environment's flight time [s] (the single env's ``info["t"]``)."""
+        spec = self.episode_spec
+        return spec.config.control_start_s + self.state.step * spec.dt
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        # The kernel refuses non-finite actions (ValueError) before it changes anything.
         actions = np.asarray(actions)
         if actions.shape != self.action_space.shape or actions.dtype.kind not in "fiu":
             raise ValueError(f"actions must be real numbers of shape {self.action_space.shape}, got {actions.shape}")
-        if not np.isfinite(actions).all():
-            raise ValueError("actions must be finite")
         if self._rngs is None:
             raise RuntimeError("step() called before reset()")
         result = self.core.step(actions)
-        obs, terminated = result.observation, result.terminated
+        obs, terminated = result.observation, result.terminated.astype(bool)
+        reward = result.reward.copy()
         info: dict[str, Any] = {}
         if terminated.any():
             done = np.flatnonzero(terminated)
             final_obs = np.full(self.num_envs, None, dtype=object)
             final_obs[done] = list(obs[done])
             scores = {"terminal_pointing_rad": result.terminal_pointing_rad,
-                      "terminal_envelope_rad": result.terminal_envelope_rad,
-                      "is_success": result.terminal_pointing_rad <= POINTING_TOLERANCE_RAD,
-                      "diverged": result.diverged, "cutoff_s": self.core.cutoff_s.copy()}
+                      "terminal_envelope_rad": result.terminal_envelope_rad, "is_success": result.success,
+                      "diverged": result.diverged.astype(bool), "cutoff_s": self.state.cutoff_s.copy()}
             final_info: dict[str, Any] = {}
             for key, value in scores.items():
                 final_info[key], final_info[f"_{key}"] = value, terminated
@@ -144,4 +149,4 @@ class LightSailVectorEnv(VectorEnv):
                     "_final_info": terminated}
             self.core.reset(done, [self._rngs[i] for i in done])
             obs[done] = self.core.observe(done)
-        return obs, result.reward, terminated, self._truncated.copy(), info
+        return obs, reward, terminated, self._truncated.copy(), info

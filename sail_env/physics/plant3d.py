@@ -189,6 +189,9 @@ class RigidPlant(LinearPlant):
     spread_fields = SPREAD_FIELDS
     jitter_inputs = (0, 1)
     velocity_rows = (VX, VY)
+    #: The CoM has left the aperture (``√(x² + y²) > a``) or the tilt the small-angle regime or the
+    #: aperture (``√(θx² + θy²) > min(a/Lc, MAX_TILT_RAD)``).
+    divergence_groups = ((X, Y), (THETA_X, THETA_Y))
 
     def __init__(self, flight: RigidFlight, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0) -> None:
@@ -361,13 +364,6 @@ class RigidPlant(LinearPlant):
         c = self.config.sail
         tilt = min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)
         return np.repeat([c.aperture_radius_m, c.aperture_radius_m / self.dt, tilt, tilt / self.dt], 2)
-
-    def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
-        """The CoM has left the beam's aperture (``√(x² + y²) > a``) or the tilt the small-angle
-        regime or the aperture (``√(θx² + θy²) > min(a/Lc, MAX_TILT_RAD)``); NaN counts as left."""
-        offset = np.hypot(x[:, X], x[:, Y])
-        tilt = np.hypot(x[:, THETA_X], x[:, THETA_Y])
-        return ~((offset <= p.limits[:, 0]) & (tilt <= p.limits[:, 1]))
 
     def power_factor(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The Doppler power factor at flight time ``t`` of sails with ``ratio`` times the nominal
