@@ -197,7 +197,7 @@ class EpisodeCore:
         ended = kernels.step(action, obs, state.floats, state.ints, state.layout, self.consts, state.params.step,
                              state.params.envelope, state.params.limits)
         if ended < 0:
-            raise ValueError(f"actions must be finite, got {action}")
+            raise ValueError("actions must be finite")
         result = StepResult(obs, state.reward, state.terminated, state.diverged, state.envelope, state.applied)
         if ended:
             self._score(result)

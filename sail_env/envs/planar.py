@@ -11,6 +11,7 @@ from gymnasium import spaces
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
+from sail_env.core.state import EpisodeState
 from sail_env.envs.rendering import SailRenderer
 from sail_env.physics.config import SailConfig, real_number
 
@@ -162,13 +163,16 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (spec.observation_size,),
                                             np.float32)
         self.core = EpisodeCore(spec, 1)
-        #: The episode's arrays (:class:`~sail_env.core.state.EpisodeState`): what the env reads of the core.
-        self.state = self.core.state
         self._action_shape = self.action_space.shape
         self._state_names = spec.plant.state_names
         self._batch_shape = (1, spec.plant.n_inputs)
         self._renderer: SailRenderer | None = None
         self._trajectory: list[tuple[float, np.ndarray, np.ndarray]] = []
+
+    @property
+    def state(self) -> EpisodeState:
+        """The episode's arrays (:class:`~sail_env.core.state.EpisodeState`): all the env reads of the core."""
+        return self.core.state
 
     def reset(self, *, seed: int | None = None,
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -191,7 +195,10 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         state = self.state
         if state.finished[0]:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        result = self.core.step(action.reshape(self._batch_shape))
+        try:
+            result = self.core.step(action.reshape(self._batch_shape))
+        except ValueError:
+            raise ValueError(f"action must be finite, got {action}") from None
         info = self._info()
         if self.render_mode is not None:
             self._trajectory.append((info["t"], state.x[0].copy(), result.applied[0].copy()))

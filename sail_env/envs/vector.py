@@ -30,6 +30,7 @@ from gymnasium.vector.utils import batch_space
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
+from sail_env.core.state import EpisodeState
 from sail_env.envs.planar import initial_state
 from sail_env.physics.config import SailConfig
 
@@ -81,11 +82,14 @@ class LightSailVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.core = EpisodeCore(spec, self.num_envs)
-        #: The episodes' arrays (:class:`~sail_env.core.state.EpisodeState`): what the env reads of the core.
-        self.state = self.core.state
         self._rngs: list[np.random.Generator] | None = None
         self._all = np.arange(self.num_envs)
         self._truncated = np.zeros(self.num_envs, dtype=bool)
+
+    @property
+    def state(self) -> EpisodeState:
+        """The episodes' arrays (:class:`~sail_env.core.state.EpisodeState`): all the env reads of the core."""
+        return self.core.state
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None,
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
