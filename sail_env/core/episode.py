@@ -191,16 +191,32 @@ class EpisodeCore:
     # ------------------------------------------------------------------ step
     def step(self, action: np.ndarray) -> StepResult:
         """Advance every environment by one control step with ``action`` (N, m) in [-1, 1] (clipped);
-        ``ValueError`` if an action is not finite."""
+        ``ValueError`` if an action is not finite, ``RuntimeError`` if an episode has finished."""
         state = self.state
         obs = np.empty((self.num_envs, self.spec.observation_size), dtype=np.float32)
-        ended = kernels.step(action, obs, state.floats, state.ints, state.layout, self.consts, state.params.step,
+        result = StepResult(obs, state.reward, state.terminated, state.diverged, state.envelope, state.applied)
+        if self.advance(action, obs):
+            self._score(result)
+        return result
+
+    def advance(self, action: np.ndarray, out: np.ndarray) -> int:
+        """The compiled step alone (:meth:`step` without the scoring): the observations into ``out``
+        (N, D) float32, the rest into :attr:`state`. Returns how many episodes terminated; the caller
+        then scores them (:meth:`score`). What the single env's hot path calls."""
+        state = self.state
+        ended = kernels.step(action, out, state.floats, state.ints, state.layout, self.consts, state.params.step,
                              state.params.envelope, state.params.limits)
         if ended < 0:
+            if ended == -2:
+                raise RuntimeError("step() called on a finished episode; call reset() first")
             raise ValueError("actions must be finite")
-        result = StepResult(obs, state.reward, state.terminated, state.diverged, state.envelope, state.applied)
-        if ended:
-            self._score(result)
+        return ended
+
+    def score(self) -> StepResult:
+        """The scores of the episodes the last :meth:`advance` terminated (observation None)."""
+        state = self.state
+        result = StepResult(None, state.reward, state.terminated, state.diverged, state.envelope, state.applied)
+        self._score(result)
         return result
 
     def _score(self, result: StepResult) -> None:

@@ -172,9 +172,12 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
          consts: np.ndarray, steps: np.ndarray, envelope: np.ndarray, limits: np.ndarray) -> int:
     """Advance every environment one control step with ``action`` (N, m) in [-1, 1] (clipped): the
     state's fields and ``out`` (N, D) the observations. Returns how many episodes terminated (their
-    scoring is the caller's), or -1 (nothing changed) if an action is not finite."""
+    scoring is the caller's); nothing changes and it returns -1 if an action is not finite, -2 if an
+    episode has finished (it needs a reset)."""
     envs, n, m, cols = layout[_N], layout[_NS], layout[_NI], layout[_NC]
     for i in range(envs):
+        if ints[layout[_FIN] + i]:
+            return -2
         for c in range(m):
             if not math.isfinite(action[i, c]):
                 return -1

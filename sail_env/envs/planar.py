@@ -163,9 +163,12 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (spec.observation_size,),
                                             np.float32)
         self.core = EpisodeCore(spec, 1)
+        # What the step's hot path reads (an attribute lookup each, not a chain).
         self._action_shape = self.action_space.shape
         self._state_names = spec.plant.state_names
-        self._batch_shape = (1, spec.plant.n_inputs)
+        self._batch_action = (1, spec.plant.n_inputs)
+        self._batch_observation = (1, spec.observation_size)
+        self._start_s, self._dt = spec.config.control_start_s, spec.dt
         self._renderer: SailRenderer | None = None
         self._trajectory: list[tuple[float, np.ndarray, np.ndarray]] = []
 
@@ -187,22 +190,22 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         return self.core.observe()[0], self._info()
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        # The kernel refuses a non-finite action (ValueError) before it changes anything.
+        # The kernel refuses a non-finite action (ValueError) and a finished episode (RuntimeError)
+        # before it changes anything.
         action = np.asarray(action)
         if action.shape != self._action_shape or action.dtype.kind not in "fiu":
             size = self._action_shape[0]
             raise ValueError(f"action must be {size} real numbers (shape ({size},)), got {action!r}")
-        state = self.state
-        if state.finished[0]:
-            raise RuntimeError("step() called on a finished episode; call reset() first")
+        core, obs = self.core, np.empty(self._batch_observation, dtype=np.float32)
         try:
-            result = self.core.step(action.reshape(self._batch_shape))
+            ended = core.advance(action.reshape(self._batch_action), obs)
         except ValueError:
             raise ValueError(f"action must be finite, got {action}") from None
-        info = self._info()
-        if self.render_mode is not None:
-            self._trajectory.append((info["t"], state.x[0].copy(), result.applied[0].copy()))
-        if state.terminated[0]:
+        state = core.state
+        info = {"state": dict(zip(self._state_names, state.x[0].tolist())),
+                "t": self._start_s + state.step.item(0) * self._dt}
+        if ended:
+            result = core.score()
             info.update(terminal_pointing_rad=float(result.terminal_pointing_rad[0]),
                         terminal_envelope_rad=float(result.terminal_envelope_rad[0]),
                         is_success=bool(result.success[0]), diverged=bool(state.diverged[0]),
@@ -210,10 +213,12 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
             if not state.diverged[0]:
                 info.update(envelope_rad=float(state.envelope[0]), terminal_state=self._named(result.terminal_state[0]))
         else:
-            info["envelope_rad"] = float(state.envelope[0])
-        if self.render_mode == "human":
-            self.render()
-        return result.observation[0], float(state.reward[0]), bool(state.terminated[0]), False, info
+            info["envelope_rad"] = state.envelope.item(0)
+        if self.render_mode is not None:
+            self._trajectory.append((info["t"], state.x[0].copy(), state.applied[0].copy()))
+            if self.render_mode == "human":
+                self.render()
+        return obs[0], state.reward.item(0), ended > 0, False, info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -236,7 +241,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _time(self) -> float:
         spec = self.episode_spec
-        return spec.config.control_start_s + int(self.state.step[0]) * spec.dt
+        return spec.config.control_start_s + int(self.state.step[0]) * spec.dt  # as the step's info["t"]
 
     def _info(self) -> dict[str, Any]:
         return {"state": self._named(self.state.x[0]), "t": self._time()}
