@@ -41,7 +41,7 @@ def test_the_envs_and_agents_read_the_core_only_through_its_state():
     """Outside the core nothing reaches into ``core.<array>``: the documented state is the interface."""
     users = [*(ROOT / "sail_env" / "envs").glob("*.py"), *(ROOT / "agents").glob("*.py")]
     allowed = {"state", "step", "reset", "observe"}
-    reached = {(path.name, name) for path in users for name in re.findall(r"(?:self|unwrapped|envs|env)\.core\.([a-z_]\w*)", path.read_text())
+    reached = {(path.name, name) for path in users for name in re.findall(r"\b(?:self|unwrapped|envs|env)\.core\.([a-z_]\w*)", path.read_text())
                if name not in allowed}
     assert not reached
 
