@@ -114,8 +114,15 @@ class EpisodeCore:
         self.state.cutoff_s[:] = spec.config.beam_cutoff_s
         self.state.speed_at_cutoff[:] = plant.speed(params, self.state.cutoff_s)
         self.consts = np.concatenate([spec.action_scale, spec.state_scale, spec.sensor_noise_std, [dist.push_noise]])
+        self.envelope_tables = self._transposed(params.envelope)
         self._rows = np.arange(n)
         self._jittered, self._impacts, self._pushed, self._sensed = jittered, impacts, pushed, sensed
+
+    @staticmethod
+    def _transposed(envelope: np.ndarray) -> np.ndarray:
+        """The look-ahead tables (K, S, R·c) as the kernels read them, (K, R·c, S) contiguous: a
+        sample's sum is then a column, and all samples' sums run at once."""
+        return np.ascontiguousarray(envelope.transpose(0, 2, 1))
 
     # ------------------------------------------------------------------ reset
     def reset(self, index: np.ndarray, rngs: Sequence[np.random.Generator],
@@ -146,6 +153,10 @@ class EpisodeCore:
         params = plant.params(factors)
         if not params.shared:
             state.params.put(index, params)
+            if self.envelope_tables.shape[2] == state.params.envelope.shape[1]:
+                self.envelope_tables[index] = self._transposed(state.params.envelope[index])
+            else:  # the tables were padded to a longer draw's
+                self.envelope_tables = self._transposed(state.params.envelope)
         for i, rng in zip(index, rngs):
             state.rngs[i] = rng
         state.cutoff_s[index] = cutoff
@@ -205,7 +216,7 @@ class EpisodeCore:
         then scores them (:meth:`score`). What the single env's hot path calls."""
         state = self.state
         ended = kernels.step(action, out, state.floats, state.ints, state.layout, self.consts, state.params.step,
-                             state.params.envelope, state.params.limits)
+                             self.envelope_tables, state.params.limits)
         if ended < 0:
             if ended == -2:
                 raise RuntimeError("step() called on a finished episode; call reset() first")
@@ -242,11 +253,11 @@ class EpisodeCore:
 
     def _peak_speeds(self, index: np.ndarray, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """The envelope's lateral speed of environments ``index`` at ``x`` with ``u`` (k, m) held (the kernel's)."""
-        plant, envelope = self.spec.plant, self.state.params.envelope
+        plant = self.spec.plant
         biased = plant.with_bias(u)
         out = np.empty(len(index))
         kernels.peak_speeds(index, np.ascontiguousarray(x), np.ascontiguousarray(biased), x.shape[1] + biased.shape[1],
-                            len(plant.velocity_rows), envelope, out)
+                            len(plant.velocity_rows), self.envelope_tables, out)
         return out
 
     # ------------------------------------------------------------------ coast and observation

@@ -8,8 +8,9 @@ parameter draws, the pre-control coast) stay in NumPy (:mod:`sail_env.core.episo
 
 Every kernel takes the :class:`~sail_env.core.state.EpisodeState`'s buffers (``floats``, ``ints``,
 ``layout``), ``consts`` (the action scales (m), the state scales (n), the sensor noise (n), the
-push noise) and the plant's arrays (``steps`` (K, P·n, c), ``envelope`` (K, S, R·c), ``limits``
-(K, G); K = 1 when every environment shares the model). The caller allocates the outputs.
+push noise) and the plant's arrays (``steps`` (K, P·n, c), ``envelope`` (K, R·c, S): the look-ahead
+tables transposed (``EpisodeCore.envelope_tables``), ``limits`` (K, G); K = 1 when every environment
+shares the model). The caller allocates the outputs.
 """
 
 from __future__ import annotations
@@ -76,13 +77,13 @@ def _physics(i: int, column: int, u: np.ndarray, z: np.ndarray, floats: np.ndarr
         z[k] = floats[x0 + k]
     for k in range(cols - n):
         z[n + k] = u[k]
-    matrix = steps[i if steps.shape[0] > 1 else 0]
+    model = i if steps.shape[0] > 1 else 0  # indexed, not a view: a view costs two atomic reference counts
     for r in range(n):  # Horner's scheme in ε over the push expansion's rows, highest power first
         out = 0.0
         for p in range(powers - 1, -1, -1):
             row = 0.0
             for k in range(cols):
-                row += matrix[p * n + r, k] * z[k]
+                row += steps[model, p * n + r, k] * z[k]
             out = row + eps * out if p < powers - 1 else row
         floats[x0 + r] = out
     impacts = layout[_NIMP]
@@ -98,41 +99,53 @@ def _physics(i: int, column: int, u: np.ndarray, z: np.ndarray, floats: np.ndarr
 def _diverged(i: int, floats: np.ndarray, layout: np.ndarray, limits: np.ndarray) -> bool:
     """The plant's declared rule: the norm of each divergence group's rows beyond its limit (NaN too)."""
     x0, jitter, impacts = layout[_X] + i * layout[_NS], layout[_NJ], layout[_NIMP]
-    bound = limits[i if limits.shape[0] > 1 else 0]
+    model = i if limits.shape[0] > 1 else 0
     groups = _TABLES + jitter + impacts
     for g in range(layout[_G]):
         first, second = layout[groups + 2 * g], layout[groups + 2 * g + 1]
         size = abs(floats[x0 + first]) if second < 0 else math.hypot(floats[x0 + first], floats[x0 + second])
-        if not size <= bound[g]:
+        if not size <= limits[model, g]:
             return True
     return False
 
 
 @compiled
-def peak_speed(i: int, x: np.ndarray, u: np.ndarray, cols: int, speed_rows: int, envelope: np.ndarray) -> float:
-    """Largest lateral speed [m/s] over the look-ahead table of environment ``i`` (the norm of the
-    velocity rows) with ``u`` held from state ``x`` (:func:`sail_env.physics.pointing.peak_speed`)."""
-    n = x.shape[0]
-    table = envelope[i if envelope.shape[0] > 1 else 0]
-    best = 0.0
-    for s in range(table.shape[0]):
-        total = 0.0
-        for r in range(speed_rows):
-            speed = 0.0
-            for k in range(n):
-                speed += table[s, r * cols + k] * x[k]
-            for k in range(cols - n):
-                speed += table[s, r * cols + n + k] * u[k]
-            total += speed * speed if speed_rows > 1 else abs(speed)
-        if total > best or s == 0:
-            best = total
+def peak_speed(z: np.ndarray, envelope: np.ndarray, model: int, speed_rows: int, speeds: np.ndarray,
+               total: np.ndarray) -> float:
+    """Largest lateral speed [m/s] over look-ahead table ``model`` of ``envelope`` (the norm of its
+    velocity rows) from ``z`` (c,): the state and the input held
+    (:func:`sail_env.physics.pointing.peak_speed`). The tables (K, R·c, S) are transposed, so that
+    the sums run over all samples at once (each sample's own sum, in the same order); ``speeds`` and
+    ``total`` are scratch (at least S)."""
+    cols, samples = z.shape[0], envelope.shape[2]
+    for r in range(speed_rows):
+        for s in range(samples):
+            speeds[s] = 0.0
+        for k in range(cols):
+            value = z[k]
+            row = r * cols + k
+            for s in range(samples):
+                speeds[s] += envelope[model, row, s] * value
+        if speed_rows == 1:
+            for s in range(samples):
+                total[s] = abs(speeds[s])
+        elif r == 0:
+            for s in range(samples):
+                total[s] = speeds[s] * speeds[s]
+        else:
+            for s in range(samples):
+                total[s] += speeds[s] * speeds[s]
+    best = total[0]
+    for s in range(1, samples):
+        if total[s] > best:
+            best = total[s]
     return math.sqrt(best) if speed_rows > 1 else best
 
 
 @compiled
-def _observe(i: int, step: int, out: np.ndarray, floats: np.ndarray, ints: np.ndarray, layout: np.ndarray,
+def _observe(i: int, step: int, out: np.ndarray, row: int, floats: np.ndarray, ints: np.ndarray, layout: np.ndarray,
              consts: np.ndarray) -> None:
-    """Fill ``out`` (D,) float32 with environment ``i``'s observation at ``step``: the (delayed, noisy)
+    """Fill row ``row`` of ``out`` (·, D) float32 with environment ``i``'s observation at ``step``: the (delayed, noisy)
     state over its scales, the progress through the window, the commands sent, newest first."""
     n, m, window = layout[_NS], layout[_NI], layout[_WIN]
     if layout[_T]:
@@ -147,15 +160,15 @@ def _observe(i: int, step: int, out: np.ndarray, floats: np.ndarray, ints: np.nd
         value = floats[source + k]
         if sensed:
             value = value + consts[m + n + k] * floats[noise + k]
-        out[k] = min(max(value / consts[m + k], -limit), limit)
-    out[n] = 2.0 * step / window - 1.0
+        out[row, k] = min(max(value / consts[m + k], -limit), limit)
+    out[row, n] = 2.0 * step / window - 1.0
     ring = layout[_CR]
     for h in range(layout[_H]):
         sent = step - 1 - h
         base = layout[_CMDS] + (i * ring + sent % ring) * m
         for c in range(m):
             value = floats[base + c] / consts[c] if sent >= 0 else 0.0
-            out[n + 1 + h * m + c] = min(max(value, -limit), limit)
+            out[row, n + 1 + h * m + c] = min(max(value, -limit), limit)
 
 
 @compiled
@@ -164,7 +177,7 @@ def observe(index: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.nda
     """Observations (k, D) of environments ``index`` at their current step."""
     for row in range(index.shape[0]):
         i = index[row]
-        _observe(i, ints[layout[_STEP] + i], out[row], floats, ints, layout, consts)
+        _observe(i, ints[layout[_STEP] + i], out, row, floats, ints, layout, consts)
 
 
 @compiled
@@ -183,6 +196,7 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
                 return -1
     u = np.empty(cols)
     z = np.empty(n + cols)
+    speeds, total = np.empty(envelope.shape[2]), np.empty(envelope.shape[2])
     delayed = layout[_T] > 0
     ring, window = layout[_CR], layout[_WIN]
     ended = 0
@@ -210,9 +224,12 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
             for k in range(n):
                 floats[target + k] = floats[x0 + k]
         diverged = _diverged(i, floats, layout, limits)
-        for c in range(m):  # the applied input without the jitter: what the envelope holds
-            u[c] = floats[layout[_APPLIED] + i * m + c]
-        envelope_rad = peak_speed(i, floats[x0:x0 + n], u, cols, layout[_NR], envelope) / floats[layout[_SPEED] + i]
+        for k in range(n):  # the state and the applied input without the jitter: what the envelope holds
+            z[k] = floats[x0 + k]
+        for c in range(m):
+            z[n + c] = floats[layout[_APPLIED] + i * m + c]
+        speed = peak_speed(z[:cols], envelope, i if envelope.shape[0] > 1 else 0, layout[_NR], speeds, total)
+        envelope_rad = speed / floats[layout[_SPEED] + i]
         floats[layout[_ENV] + i] = envelope_rad
         reward = -log_ratio_of(envelope_rad) / window
         terminated = diverged or now >= window
@@ -222,7 +239,7 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
         if terminated:
             ints[layout[_FIN] + i] = 1
             ended += 1
-        _observe(i, now, out[i], floats, ints, layout, consts)
+        _observe(i, now, out, i, floats, ints, layout, consts)
     return ended
 
 
@@ -275,5 +292,9 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
 def peak_speeds(index: np.ndarray, x: np.ndarray, u: np.ndarray, cols: int, speed_rows: int,
                 envelope: np.ndarray, out: np.ndarray) -> None:
     """:func:`peak_speed` of environments ``index`` at states ``x`` (k, n) with inputs ``u`` (k, c - n)."""
+    n = x.shape[1]
+    speeds, total, z = np.empty(envelope.shape[2]), np.empty(envelope.shape[2]), np.empty(cols)
     for row in range(index.shape[0]):
-        out[row] = peak_speed(index[row], x[row], u[row], cols, speed_rows, envelope)
+        z[:n] = x[row]
+        z[n:] = u[row]
+        out[row] = peak_speed(z, envelope, index[row] if envelope.shape[0] > 1 else 0, speed_rows, speeds, total)
