@@ -93,14 +93,13 @@ class EpisodeCore:
         for group in groups:
             tables += [group[0], group[1] if len(group) > 1 else -1]
         layout[int(Slot.TABLES):] = tables
-        floats, ints, views = allocate(layout, {
-            Slot.X: (n, ns), Slot.LAST_COMMAND: (n, m), Slot.APPLIED: (n, m), Slot.CUTOFF: (n,),
-            Slot.SPEED_AT_CUTOFF: (n,), Slot.REWARD: (n,), Slot.ENVELOPE: (n,), Slot.COMMANDS: (n, ring, m),
-            Slot.STATE_HISTORY: (n, state_ring, ns), Slot.NORMAL_BLOCK: (n, sum(parts)),
-            Slot.JITTER_STD: (n, w if jittered else 0), Slot.IMPACT_COUNTS: (n, w if impacts else 0),
-            Slot.IMPACT_STD: (n, impacts)},
-            {Slot.STEP: (n,), Slot.FINISHED: (n,), Slot.TERMINATED: (n,), Slot.DIVERGED: (n,), Slot.LAG0: (n,),
-             Slot.DELAY: (n, delay_length)})
+        floats, ints, views = allocate(n, layout, {
+            Slot.X: (ns,), Slot.LAST_COMMAND: (m,), Slot.APPLIED: (m,), Slot.CUTOFF: (), Slot.SPEED_AT_CUTOFF: (),
+            Slot.REWARD: (), Slot.ENVELOPE: (), Slot.COMMANDS: (ring, m), Slot.STATE_HISTORY: (state_ring, ns),
+            Slot.NORMAL_BLOCK: (sum(parts),), Slot.JITTER_STD: (w if jittered else 0,),
+            Slot.IMPACT_COUNTS: (w if impacts else 0,), Slot.IMPACT_STD: (impacts,)},
+            {Slot.STEP: (), Slot.FINISHED: (), Slot.TERMINATED: (), Slot.DIVERGED: (), Slot.LAG0: (),
+             Slot.DELAY: (delay_length,)})
         self.state = EpisodeState(
             x=views[Slot.X], step=views[Slot.STEP], last_command=views[Slot.LAST_COMMAND],
             applied=views[Slot.APPLIED], finished=views[Slot.FINISHED], terminated=views[Slot.TERMINATED],

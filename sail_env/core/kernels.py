@@ -41,6 +41,20 @@ _X, _LAST, _APPLIED, _CUT, _SPEED, _REWARD, _ENV, _CMDS, _HIST, _NORM, _JSTD, _I
                      Slot.IMPACT_COUNTS, Slot.IMPACT_STD))
 _STEP, _FIN, _TERM, _DIV, _LAG, _DELAY, _TABLES = (
     int(s) for s in (Slot.STEP, Slot.FINISHED, Slot.TERMINATED, Slot.DIVERGED, Slot.LAG0, Slot.DELAY, Slot.TABLES))
+_FREC, _IREC = int(Slot.FLOAT_RECORD), int(Slot.INT_RECORD)
+
+
+@compiled
+def _fl(layout: np.ndarray, slot: int, i: int) -> int:
+    """Where environment ``i``'s field ``slot`` starts in the float buffer (one record per environment:
+    its fields side by side, so a step reads a few neighbouring cache lines, not one per field)."""
+    return i * layout[_FREC] + layout[slot]
+
+
+@compiled
+def _it(layout: np.ndarray, slot: int, i: int) -> int:
+    """Where environment ``i``'s field ``slot`` starts in the integer buffer."""
+    return i * layout[_IREC] + layout[slot]
 
 
 @compiled
@@ -48,8 +62,8 @@ def _applied(i: int, step: int, newest: int, u: np.ndarray, floats: np.ndarray, 
              layout: np.ndarray) -> None:
     """Write into ``u[:m]`` the command acting on environment ``i`` during ``step`` (zero before any arrives)."""
     m, ring = layout[_NI], layout[_CR]
-    sent = arrived_command(step, ints[layout[_DELAY] + i * layout[_T] + step], newest)
-    base = layout[_CMDS] + (i * ring + sent % ring) * m
+    sent = arrived_command(step, ints[_it(layout, _DELAY, i) + step], newest)
+    base = _fl(layout, _CMDS, i) + (sent % ring) * m
     for c in range(m):
         u[c] = floats[base + c] if sent >= 0 else 0.0
 
@@ -61,11 +75,11 @@ def _physics(i: int, column: int, u: np.ndarray, z: np.ndarray, floats: np.ndarr
     ``u`` (m, and 1 for a constant term) and the per-step noise of noise step ``column``.
     ``u`` receives the jitter; ``z`` is scratch (n + columns)."""
     n, m, cols, powers, w = layout[_NS], layout[_NI], layout[_NC], layout[_NP], layout[_W]
-    x0 = layout[_X] + i * n
-    normals = layout[_NORM] + i * layout[_K]
+    x0 = _fl(layout, _X, i)
+    normals = _fl(layout, _NORM, i)
     jittered = layout[_NJ]
     if jittered:
-        std = floats[layout[_JSTD] + i * w + column]
+        std = floats[_fl(layout, _JSTD, i) + column]
         for j in range(jittered):
             u[layout[_TABLES + j]] += std * floats[normals + layout[_OJN] + column * jittered + j]
     pushed = layout[_PUSHED] == 1
@@ -88,9 +102,9 @@ def _physics(i: int, column: int, u: np.ndarray, z: np.ndarray, floats: np.ndarr
         floats[x0 + r] = out
     impacts = layout[_NIMP]
     if impacts:
-        count = math.sqrt(floats[layout[_ICNT] + i * w + column])
+        count = math.sqrt(floats[_fl(layout, _ICNT, i) + column])
         for j in range(impacts):
-            kick = count * floats[layout[_ISTD] + i * impacts + j]
+            kick = count * floats[_fl(layout, _ISTD, i) + j]
             row = layout[_TABLES + jittered + j]
             floats[x0 + row] += kick * floats[normals + layout[_OIN] + column * impacts + j]
 
@@ -98,7 +112,7 @@ def _physics(i: int, column: int, u: np.ndarray, z: np.ndarray, floats: np.ndarr
 @compiled
 def _diverged(i: int, floats: np.ndarray, layout: np.ndarray, limits: np.ndarray) -> bool:
     """The plant's declared rule: the norm of each divergence group's rows beyond its limit (NaN too)."""
-    x0, jitter, impacts = layout[_X] + i * layout[_NS], layout[_NJ], layout[_NIMP]
+    x0, jitter, impacts = _fl(layout, _X, i), layout[_NJ], layout[_NIMP]
     model = i if limits.shape[0] > 1 else 0
     groups = _TABLES + jitter + impacts
     for g in range(layout[_G]):
@@ -149,12 +163,12 @@ def _observe(i: int, step: int, out: np.ndarray, row: int, floats: np.ndarray, i
     state over its scales, the progress through the window, the commands sent, newest first."""
     n, m, window = layout[_NS], layout[_NI], layout[_WIN]
     if layout[_T]:
-        shown = max(step - ints[layout[_DELAY] + i * layout[_T] + step] + ints[layout[_LAG] + i], 0)
-        source = layout[_HIST] + (i * layout[_SR] + shown % layout[_SR]) * n
+        shown = max(step - ints[_it(layout, _DELAY, i) + step] + ints[_it(layout, _LAG, i)], 0)
+        source = _fl(layout, _HIST, i) + (shown % layout[_SR]) * n
     else:
-        source = layout[_X] + i * n
+        source = _fl(layout, _X, i)
     sensed = layout[_SENSED] == 1
-    noise = layout[_NORM] + i * layout[_K] + layout[_OSN] + step * n
+    noise = _fl(layout, _NORM, i) + layout[_OSN] + step * n
     limit = OBSERVATION_LIMIT
     for k in range(n):
         value = floats[source + k]
@@ -165,7 +179,7 @@ def _observe(i: int, step: int, out: np.ndarray, row: int, floats: np.ndarray, i
     ring = layout[_CR]
     for h in range(layout[_H]):
         sent = step - 1 - h
-        base = layout[_CMDS] + (i * ring + sent % ring) * m
+        base = _fl(layout, _CMDS, i) + (sent % ring) * m
         for c in range(m):
             value = floats[base + c] / consts[c] if sent >= 0 else 0.0
             out[row, n + 1 + h * m + c] = min(max(value, -limit), limit)
@@ -177,7 +191,7 @@ def observe(index: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.nda
     """Observations (k, D) of environments ``index`` at their current step."""
     for row in range(index.shape[0]):
         i = index[row]
-        _observe(i, ints[layout[_STEP] + i], out, row, floats, ints, layout, consts)
+        _observe(i, ints[_it(layout, _STEP, i)], out, row, floats, ints, layout, consts)
 
 
 @compiled
@@ -189,7 +203,7 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
     episode has finished (it needs a reset)."""
     envs, n, m, cols = layout[_N], layout[_NS], layout[_NI], layout[_NC]
     for i in range(envs):
-        if ints[layout[_FIN] + i]:
+        if ints[_it(layout, _FIN, i)]:
             return -2
         for c in range(m):
             if not math.isfinite(action[i, c]):
@@ -201,43 +215,43 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
     ring, window = layout[_CR], layout[_WIN]
     ended = 0
     for i in range(envs):
-        now = ints[layout[_STEP] + i]
+        now = ints[_it(layout, _STEP, i)]
         for c in range(m):
             command = min(max(action[i, c], -1.0), 1.0) * consts[c]
-            floats[layout[_LAST] + i * m + c] = command
+            floats[_fl(layout, _LAST, i) + c] = command
             if delayed:
-                floats[layout[_CMDS] + (i * ring + now % ring) * m + c] = command
+                floats[_fl(layout, _CMDS, i) + (now % ring) * m + c] = command
             u[c] = command
-        lag = ints[layout[_LAG] + i]
+        lag = ints[_it(layout, _LAG, i)]
         if delayed:
             _applied(i, now, now, u, floats, ints, layout)
         for c in range(m):
-            floats[layout[_APPLIED] + i * m + c] = u[c]
+            floats[_fl(layout, _APPLIED, i) + c] = u[c]
         if cols > n + m:
             u[m] = 1.0  # the constant term's input
         _physics(i, now + lag, u, z, floats, layout, consts, steps)
         now += 1
-        ints[layout[_STEP] + i] = now
-        x0 = layout[_X] + i * n
+        ints[_it(layout, _STEP, i)] = now
+        x0 = _fl(layout, _X, i)
         if delayed:
-            target = layout[_HIST] + (i * layout[_SR] + (now + lag) % layout[_SR]) * n
+            target = _fl(layout, _HIST, i) + ((now + lag) % layout[_SR]) * n
             for k in range(n):
                 floats[target + k] = floats[x0 + k]
         diverged = _diverged(i, floats, layout, limits)
         for k in range(n):  # the state and the applied input without the jitter: what the envelope holds
             z[k] = floats[x0 + k]
         for c in range(m):
-            z[n + c] = floats[layout[_APPLIED] + i * m + c]
+            z[n + c] = floats[_fl(layout, _APPLIED, i) + c]
         speed = peak_speed(z[:cols], envelope, i if envelope.shape[0] > 1 else 0, layout[_NR], speeds, total)
-        envelope_rad = speed / floats[layout[_SPEED] + i]
-        floats[layout[_ENV] + i] = envelope_rad
+        envelope_rad = speed / floats[_fl(layout, _SPEED, i)]
+        floats[_fl(layout, _ENV, i)] = envelope_rad
         reward = -log_ratio_of(envelope_rad) / window
         terminated = diverged or now >= window
-        floats[layout[_REWARD] + i] = DIVERGENCE_PENALTY if diverged else reward
-        ints[layout[_TERM] + i] = terminated
-        ints[layout[_DIV] + i] = diverged
+        floats[_fl(layout, _REWARD, i)] = DIVERGENCE_PENALTY if diverged else reward
+        ints[_it(layout, _TERM, i)] = terminated
+        ints[_it(layout, _DIV, i)] = diverged
         if terminated:
-            ints[layout[_FIN] + i] = 1
+            ints[_it(layout, _FIN, i)] = 1
             ended += 1
         _observe(i, now, out, i, floats, ints, layout, consts)
     return ended
@@ -252,13 +266,13 @@ def pre_control(index: np.ndarray, floats: np.ndarray, ints: np.ndarray, layout:
     u, z = np.empty(cols), np.empty(n + cols)
     for row in range(index.shape[0]):
         i = index[row]
-        x0 = layout[_X] + i * n
-        for s in range(ints[layout[_LAG] + i]):
+        x0 = _fl(layout, _X, i)
+        for s in range(ints[_it(layout, _LAG, i)]):
             u[:] = 0.0
             if cols > n + layout[_NI]:
                 u[layout[_NI]] = 1.0
             _physics(i, s, u, z, floats, layout, consts, steps)
-            target = layout[_HIST] + (i * layout[_SR] + (s + 1) % layout[_SR]) * n
+            target = _fl(layout, _HIST, i) + ((s + 1) % layout[_SR]) * n
             for k in range(n):
                 floats[target + k] = floats[x0 + k]
 
@@ -274,14 +288,14 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
     last = window - 1
     for row in range(index.shape[0]):
         i = index[row]
-        x0 = layout[_X] + i * n
+        x0 = _fl(layout, _X, i)
         saved = floats[x0:x0 + n].copy()
-        now = ints[layout[_STEP] + i]
-        while now - ints[layout[_DELAY] + i * layout[_T] + now] < last:
+        now = ints[_it(layout, _STEP, i)]
+        while now - ints[_it(layout, _DELAY, i) + now] < last:
             _applied(i, now, last, u, floats, ints, layout)
             if cols > n + m:
                 u[m] = 1.0
-            _physics(i, now + ints[layout[_LAG] + i], u, z, floats, layout, consts, steps)
+            _physics(i, now + ints[_it(layout, _LAG, i)], u, z, floats, layout, consts, steps)
             now += 1
         x[row] = floats[x0:x0 + n]
         reached[row] = now
