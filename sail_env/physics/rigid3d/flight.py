@@ -200,7 +200,8 @@ class FlightTable:
                         lo, hi = 0.0, node - t
                         for _ in range(EDGE_ITERATIONS):
                             mid = 0.5 * (lo + hi)
-                            lo, hi = (mid, hi) if rates.rk4(momentum, distance, mid)[1] < targets[pending] else (lo, mid)
+                            short = rates.rk4(momentum, distance, mid)[1] < targets[pending]
+                            lo, hi = (mid, hi) if short else (lo, mid)
                         edge = t + hi
                         momentum, distance = rates.rk4(momentum, distance, hi)
                         times.append(edge)
@@ -309,7 +310,7 @@ def _beta(momentum, relativistic: bool):
 
 
 def _power_factor(momentum, relativistic: bool):
-    """``(1−β)/(1+β) = e^{−2η} = 1/(√(1+(γβ)²) + γβ)²`` (no cancellation at small β; arrays or floats)."""
+    """``(1−β)/(1+β) = e^{−2η} = 1/(√(1+(γβ)²) + γβ)²`` (no cancellation near rest; arrays or floats)."""
     if not relativistic:
         return momentum * 0.0 + 1.0
     return 1.0 / ((1.0 + momentum * momentum) ** 0.5 + momentum) ** 2
