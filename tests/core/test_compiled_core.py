@@ -50,7 +50,7 @@ def test_the_envs_and_agents_read_the_core_only_through_its_state():
 def test_the_compiled_step_applies_the_divergence_rule_the_plant_declares(env_id):
     """States around the limits: the kernel's divergence is the plant's declared rule (NumPy) on the
     state it reached, group by group (a box in the plane, radial in 3D)."""
-    n = 4000
+    n = 1000
     envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point").unwrapped
     envs.reset(seed=1)
     plant, state = envs.episode_spec.plant, envs.state
