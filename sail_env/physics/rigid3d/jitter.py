@@ -35,6 +35,7 @@ import scipy.special
 from threadpoolctl import threadpool_limits
 
 from sail_env.physics.config import DEEP_DISH, SEED, SailConfig
+from sail_env.physics.constants import LASER_WAVELENGTH_M
 from sail_env.physics.planar import PlanarModel
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.rigid3d.body import RigidSail
@@ -56,8 +57,6 @@ CHANGE_LIMIT = 1e-3
 MAX_PHASE_RAD = 0.5
 
 # --- Physical inputs of the realistic flight (docs/physics.md §12) ---
-#: Laser wavelength of the Starshot point design (Parkin 2018).
-LASER_WAVELENGTH_M = 1.06e-6
 #: Diameter of the ground phased array: Lubin's (2016) DE-STAR 4, 10 km, 100 GW class.
 ARRAY_DIAMETER_M = 10e3
 #: Kulkarni, Lubin & Zhang's (2018) geometry factor for a circular array.
