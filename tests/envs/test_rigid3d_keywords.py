@@ -182,3 +182,19 @@ def test_reset_options_are_parsed_the_same_way_by_both_envs(env_id, vector):
             env.reset(seed=seed)
     env.reset(seed=np.int64(3), options={"initial_state": {"x": 1e-3}})
     env.reset(seed=None, options={})
+
+
+def test_an_annulus_whose_hole_widens_past_the_sail_pushes_nothing_and_flies():
+    """Found by the 3D property test: beyond the diffraction length the annulus's hole grows past the rim
+    of a deep dish; the quadrature sent rays outside the sail (NaN push) and the flight's integration
+    failed (RuntimeError at construction)."""
+    from sail_env.physics.rigid3d.body import RigidSail
+    from sail_env.physics.rigid3d.config import RigidSailConfig
+
+    sail = RigidSail(RigidSailConfig(beam_profile="annulus", curvature_radius_m=3.02, com_distance_m=1.6))
+    with np.errstate(invalid="raise"):
+        assert [sail.centred_push(1.0, s) for s in (2.5, 5.0, 50.0)] == [0.0, 0.0, 0.0]
+    env = LightSail3DEnv(beam_profile="annulus", curvature_radius_m=3.02, com_distance_m=1.6,
+                         diffraction_length_m=math.exp(22.0))
+    obs, _ = env.reset(seed=0)
+    assert np.isfinite(obs).all()
