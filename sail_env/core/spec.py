@@ -30,7 +30,7 @@ TIME_TOLERANCE_S = 1e-9
 #: its accuracy there).
 MAX_PUSH_NOISE = 0.25
 #: The settings that set the fastest flight, per kind of configuration (named when it would pass light speed).
-LIGHT_SPEED_SETTINGS = {SailConfig: "push_force_n, beam_cutoff_s and cutoff_jitter_s",
+LIGHT_SPEED_SETTINGS = {SailConfig: "push_force_n and beam_cutoff_s",
                         RigidFlight: "parameter_spread and cutoff_jitter_s"}
 #: Largest ``parameter_spread`` (exclusive): a factor ``1 − s`` must leave every length and mass positive.
 MAX_PARAMETER_SPREAD = 0.5
@@ -173,8 +173,8 @@ class EpisodeSpec:
         self._check_cutoff()
         settings = LIGHT_SPEED_SETTINGS[type(config)]
         check_below_light_speed(fastest, config.beam_cutoff_s + disturbances.cutoff_jitter_s,
-                                f"{settings} (the fastest draw of parameter_spread at the latest cut-off of "
-                                f"cutoff_jitter_s)", settings.replace(" and ", " or "))
+                                f"{settings} (fastest draw of parameter_spread, latest of cutoff_jitter_s)",
+                                settings.replace(" and ", " or "))
         self.start_limits = self.plant.start_limits()
         self.check_start(self.start_half_widths, "start_half_widths")
 

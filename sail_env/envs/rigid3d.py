@@ -132,6 +132,9 @@ class LightSail3DEnv(LightSailEnv):
     ``reset(options={"initial_state": {...}})`` with keys ``x, y, vx, vy, theta_x, theta_y,
     omega_x, omega_y`` in SI sets it instead (missing keys are zero); the key ``spin`` may
     be given too but must equal the task's ``spin_rad_s`` (the spin is part of the linear model).
+    Starts are limited radially, as divergence is: ``√(x² + y²) ≤ a``, ``√(θx² + θy²)`` ≤ the tilt
+    limit, and the speeds and rates so that no start leaves them within one step (a box of
+    ``start_half_widths`` at its corner). ``options`` takes no other key.
 
     ## Episode End
 
@@ -148,7 +151,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``sail_shape`` | ``"dish"`` | ``dish``, ``balloon``, ``flat``, ``cone`` | one of these strings |
     | ``beam_profile`` | ``"flat-top"`` | ``flat-top``, ``gaussian``, ``multi-gaussian``, ``annulus`` | one of these strings |
     | ``beam_radius_m`` | None | flat-top / annulus radius, Gaussian waist or ring radius (None: the aperture) | from the wavelength 1.06 µm (annulus: its inner edge; a Gaussian waist: 1.6 radial node spacings of the quadrature, ``a/10``) to where the sail catches 1 % of the power (flat-top ``10 a``, Gaussian ``14.1 a``, annulus ``1.97 a``, ring of lobes ``1.56 a``) |
-    | ``curvature_radius_m`` | 10 | ``R`` of the dish, balloon and cone | ``(a, 1000 a]``: flatter is the flat sail within the model's accuracy |
+    | ``curvature_radius_m`` | 10 | ``R`` of the dish, balloon and cone | ``(a, 10⁴ a]``: flatter is the flat sail within the quadrature's accuracy (1e-4) |
     | ``com_distance_m`` | 10 | ``Lc``, vertex to CoM | ``(0, 20]``: between the sail and the payload (20 m behind the vertex) |
     | ``absorptivity`` | 0 | absorbed fraction; the rest is reflected | ``[0, 1]`` |
     | ``spin_rad_s`` | 0 | spin about the sail axis (couples the tilt axes) | ``|Ω| ≤ π / dt``: half a turn per control step (628 rad/s at 5 ms, about the films' breakup) |

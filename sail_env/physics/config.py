@@ -35,7 +35,7 @@ def boolean(value: object, name: str) -> bool:
     """``value`` as a bool if it is ``True``, ``False`` or a NumPy bool; anything else (``0``, ``1``,
     strings) raises ``ValueError`` naming ``name``."""
     if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False, got {value!r}")
+        raise ValueError(f"{name} must be a bool (True or False), got {value!r}")
     return bool(value)
 
 

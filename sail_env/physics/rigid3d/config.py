@@ -23,11 +23,11 @@ BEAM_PROFILES = ("flat-top", "gaussian", "multi-gaussian", "annulus")
 
 #: Beam power whose push on a perfect flat mirror catching all of it is the seed's 100 N.
 SEED_BEAM_POWER_W = SEED.push_force_n * SPEED_OF_LIGHT / 2.0
-#: Largest ``R / a`` of a curved sail. The curvature's terms go as ``a/R``: at ``R = 1000 a`` (a sag of
-#: ``a/2000``, 1 mm on the seed's 2 m sail) they are 1e-3 of the flat sail's, the size of the terms the
-#: model leaves out (the v/c terms, the film's deformation), so a flatter sail is ``shape="flat"``
-#: within the model's accuracy; and the cone's ray intersection loses all precision from ~5e4 a.
-MAX_CURVATURE_OVER_APERTURE = 1000.0
+#: Largest ``R / a`` of a curved sail. The curvature's terms go as ``a/R``: at ``R = 1e4 a`` (a sag of
+#: ``a/2e4``, 0.1 mm on the seed's 2 m sail) they are 1e-4 of the flat sail's, the surface quadrature's
+#: own accuracy (:data:`WAIST_NODE_SPACINGS`), so a flatter sail is ``shape="flat"`` within the model's
+#: accuracy; and the cone's ray intersection loses all precision from ~5e4 a.
+MAX_CURVATURE_OVER_APERTURE = 1e4
 #: Smallest fraction of the beam's power the centred sail must catch. The linearisation is about the
 #: centred sail in its spot: a spot that misses it (an annulus whose hole is wider than the sail, lobes
 #: far outside its rim, a spot far wider than it) leaves no push and no restoring force to linearise,
