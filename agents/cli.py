@@ -84,3 +84,29 @@ def check_writable_dir(path: Path, flag: str) -> None:
             pass
     except OSError as err:
         raise UsageError(f"{flag} {path}: cannot write in {existing} ({err.strerror or err})") from err
+
+
+def section_markers(name: str) -> tuple[str, str]:
+    """The HTML comments that delimit a generated section ``name`` of a README."""
+    return f"<!-- {name}:start -->", f"<!-- {name}:end -->"
+
+
+def readme_around_section(readme: Path, name: str) -> tuple[str, str]:
+    """The README's text before and after its generated section ``name`` (:class:`UsageError` if
+    it cannot be read or lacks the markers): checked before the section is rendered."""
+    start, end = section_markers(name)
+    try:
+        text = readme.read_text()
+    except (OSError, UnicodeDecodeError) as err:
+        raise UsageError(f"--readme {readme}: cannot read it ({getattr(err, 'strerror', None) or err})") from err
+    if start not in text or end not in text.split(start, 1)[-1]:
+        raise UsageError(f"--readme {readme}: no {start} … {end} markers to put the table between")
+    head, rest = text.split(start, 1)
+    return head, rest.split(end, 1)[1]
+
+
+def replace_readme_section(readme: Path, name: str, body: str) -> None:
+    """Put ``body`` between the README's markers of section ``name``."""
+    head, tail = readme_around_section(readme, name)
+    start, end = section_markers(name)
+    readme.write_text(f"{head}{start}\n{body}\n{end}{tail}")

@@ -3,7 +3,7 @@ Optuna trial in a relational database, taken by whichever worker asks next.
 
     python -m agents.grid run                 # a worker: takes cells until none is left
     python -m agents.grid status              # done, running (where), failed, what remains
-    python -m agents.grid render --readme README.md   # the README's table from the database
+    python -m agents.grid render --readme docs/learners.md   # the table in docs/learners.md from the database
     python -m agents.grid redo --agents lqg   # queue cells again after their code changed
 
 The default storage is a SQLite file, ``runs/grid.db``: nothing to set up. With
@@ -479,26 +479,9 @@ def table_markdown(study: optuna.Study) -> str:
     return "\n".join(lines)
 
 
-README_START, README_END = "<!-- grid-table:start -->", "<!-- grid-table:end -->"
-
-
-def readme_around_table(readme: Path) -> tuple[str, str]:
-    """The README's text before and after its grid table (:class:`cli.UsageError` if it cannot
-    be read or lacks the markers): checked before the table is rendered."""
-    try:
-        text = readme.read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        raise cli.UsageError(f"--readme {readme}: cannot read it ({getattr(err, 'strerror', None) or err})") from err
-    if README_START not in text or README_END not in text.split(README_START, 1)[-1]:
-        raise cli.UsageError(f"--readme {readme}: no {README_START} … {README_END} markers to put the table between")
-    head, rest = text.split(README_START, 1)
-    return head, rest.split(README_END, 1)[1]
-
-
-def replace_in_readme(readme: Path, table: str) -> None:
-    """Put ``table`` between the README's grid-table markers."""
-    head, tail = readme_around_table(readme)
-    readme.write_text(f"{head}{README_START}\n{table}\n{README_END}{tail}")
+#: The README section the grid's table goes into (``render --readme``).
+README_SECTION = "grid-table"
+README_START, README_END = cli.section_markers(README_SECTION)
 
 
 # ---------------------------------------------------------------------- command line
@@ -540,7 +523,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         parser.error(f"argument --grace: must be at least {GRACE_HEARTBEATS} × --heartbeat ({args.heartbeat} s), "
                      f"got {args.grace}: a live worker's cell would be handed to a second worker")
     if args.readme is not None:
-        readme_around_table(args.readme)
+        cli.readme_around_section(args.readme, README_SECTION)
     return args
 
 
@@ -570,7 +553,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         table = table_markdown(study)
         if args.readme is not None:
-            replace_in_readme(args.readme, table)
+            cli.replace_readme_section(args.readme, README_SECTION, table)
         print(table)
     return 0
 

@@ -57,8 +57,6 @@ CHECKPOINT_PREFIX = "rl_model"
 #: Evaluation episodes during training are seeded apart from the training envs and from
 #: evaluate.py's default seed, so the best model is not selected on the reported episodes.
 EVAL_SEED_OFFSET = 10_000
-#: Evaluation episodes run this many at a time (the episodes are the same for any number).
-EVAL_ENVS = 10
 RUNS_ROOT = Path("runs")
 DEFAULT_SAVE_FREQ = 50_000
 PPO_DEFAULT_N_STEPS = inspect.signature(ALGOS["ppo"]).parameters["n_steps"].default
@@ -385,8 +383,10 @@ def prepare(config: dict[str, Any], resume_dir: Path | None = None) -> Setup:
 
     # A resumed run draws new episodes: reseed by the step count it continues from.
     train_env = make_env(env_id, n_envs, seed + offset, config["vec_env"], normalize, gamma, training=True)
-    eval_env = make_env(env_id, max(1, min(EVAL_ENVS, config["eval_episodes"])), seed + EVAL_SEED_OFFSET,
-                        config["vec_env"], normalize, gamma, training=False)
+    # Every selection episode in one batch, one per environment: a step of the evaluation is one
+    # call of the vector env and one of the policy, and episode i is reset(seed=eval seed + i) alone.
+    eval_env = make_env(env_id, config["eval_episodes"], seed + EVAL_SEED_OFFSET, "batched", normalize, gamma,
+                        training=False)
     try:
         if resume_from is not None and normalize is not None:
             train_env = VecNormalize.load(str(normalizer_path(resume_from)), train_env.venv)

@@ -3,7 +3,7 @@ library, and a refactoring that breaks them fails here rather than when someone 
 
 import pytest
 
-from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation
+from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -38,3 +38,28 @@ def test_two_blas_kernels_play_the_same_episodes(tmp_path, capsys):
     summary = cross_kernel.main(["--episodes", "3", "--tasks", "LightSailRealistic-v0", "--out", str(tmp_path)])
     assert summary["tasks"]["LightSailRealistic-v0"]["max_relative_difference"] < cross_kernel.SAME_EPISODES
     assert (tmp_path / "cross_kernel_passive.json").is_file()
+
+
+def test_speed_takes_turns_and_writes_its_tables_into_the_readme(tmp_path, capsys, monkeypatch):
+    """Peer and subject alternate (A, B, A, B): a burst of load on the machine cannot favour one."""
+    order = []
+    timed = speed.timed
+    monkeypatch.setattr(speed, "timed", lambda work: (order.append(work), timed(work))[1])
+    readme = tmp_path / "README.md"
+    readme.write_text("before\n<!-- speed-table:start -->\nold\n<!-- speed-table:end -->\nafter\n")
+    args = ["--quick", "--sections", "single", "--tasks", "LightSail-v0", "--out", str(tmp_path / "speed.json"),
+            "--readme", str(readme)]
+    assert speed.main(args) == 0
+    assert len(order) == 4 and order[0] is order[2] and order[1] is order[3] and order[0] is not order[1]
+    text = readme.read_text()
+    assert text.startswith("before\n<!-- speed-table:start -->\nMeasured on ") and text.endswith("after\n")
+    assert "| LightSail-v0 | " in text and "old" not in text
+    rounds = __import__("json").loads((tmp_path / "speed.json").read_text())["single"]["LightSail-v0"]
+    assert len(rounds["LightSail-v0"]["rounds"]) == 2 and rounds["CartPole-v1"]["rate"] > 0
+
+
+def test_speed_refuses_a_readme_without_its_markers_before_measuring(tmp_path, capsys):
+    readme = tmp_path / "README.md"
+    readme.write_text("no markers\n")
+    assert speed.main(["--quick", "--readme", str(readme), "--out", str(tmp_path / "s.json")]) == 2
+    assert "speed-table:start" in capsys.readouterr().err and not (tmp_path / "s.json").exists()

@@ -323,3 +323,32 @@ def test_a_signal_during_a_checkpoint_write_is_raised_after_it(tmp_path: Path) -
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def test_the_selection_episodes_run_as_one_batch_each_from_its_own_seed(tmp_path: Path) -> None:
+    """One environment per selection episode, batched whatever the training envs are, so a step of
+    the evaluation is one call; each episode is the one a single env seeded eval seed + i plays."""
+    import gymnasium as gym
+    import numpy as np
+    from stable_baselines3.common.evaluation import evaluate_policy
+
+    config = train.run_config(train.parse_args(["--algo", "ppo", "--timesteps", "256", "--vec-env", "dummy", *FAST,
+                                                "--eval-episodes", "3", "--out", str(tmp_path / "run")]))
+    setup = train.prepare(config)
+    try:
+        assert isinstance(setup.eval_env.unwrapped, train.BatchedVecEnv) and setup.eval_env.num_envs == 3
+        setup.eval_env.seed(config["seed"] + train.EVAL_SEED_OFFSET)
+        setup.eval_env.obs_rms = setup.train_env.obs_rms
+        returns, _ = evaluate_policy(setup.model, setup.eval_env, n_eval_episodes=3, deterministic=True,
+                                     return_episode_rewards=True)
+        for i, batched in enumerate(returns):
+            env = gym.make("LightSail-v0")
+            obs, _ = env.reset(seed=config["seed"] + train.EVAL_SEED_OFFSET + i)
+            total, done = 0.0, False
+            while not done:
+                action, _ = setup.model.predict(setup.eval_env.normalize_obs(obs[None]), deterministic=True)
+                obs, reward, terminated, truncated, _ = env.step(action[0])
+                total, done = total + reward, terminated or truncated
+            assert np.isclose(total, batched, rtol=1e-5), i
+    finally:
+        setup.close()

@@ -16,7 +16,8 @@ import numbers
 import scipy.stats
 
 from sail_env.physics.config import SEED, real_number
-from sail_env.physics.constants import LASER_WAVELENGTH_M, SPEED_OF_LIGHT
+from sail_env.physics.constants import SPEED_OF_LIGHT
+from sail_env.physics.mission import LASER_WAVELENGTH_M
 
 SHAPES = ("dish", "balloon", "flat", "cone")
 BEAM_PROFILES = ("flat-top", "gaussian", "multi-gaussian", "annulus")
