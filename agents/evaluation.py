@@ -305,7 +305,7 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int) -> list[dict[
     envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point")
     obs, _ = envs.reset(seed=seed)
     agent.reset()
-    start = envs.unwrapped.core.x.copy()
+    start = envs.unwrapped.state.x.copy()
     running = np.ones(episodes, dtype=bool)
     returns, scores = np.zeros(episodes), {}
     while running.any():

@@ -6,7 +6,8 @@
   mismatch.
 * The estimate is predicted forward, through the commands the agent already sent
   (still in flight or already acting), to the step its new command will reach the sail,
-  with the episode core's delay rule (``EpisodeSpec.delay_steps``).
+  with the episode core's delay rule (``EpisodeSpec.delay_steps`` and
+  ``sail_env.core.delay.arrived_command``, the compiled step's own).
 * The LQR gain of :mod:`agents.lqr`, with the same weights, acts on that prediction. (An input
   weight of 10, once chosen on the planar tasks, was no better there and fails the 3D sail with
   absorption, whose tilt is slowly unstable: 12 % against 100 % success.)
@@ -23,6 +24,7 @@ import numpy as np
 import scipy.linalg
 
 from agents.lqr import INPUT_WEIGHT, lqr_gain, state_weights
+from sail_env.core.delay import arrived_command
 from sail_env.core.spec import EpisodeSpec
 from sail_env.physics.linear import zoh_discretize
 
@@ -64,11 +66,11 @@ class LQGAgent:
         self.estimate_step = 0
 
     def _applied(self, step: int, state: np.ndarray) -> np.ndarray:
-        """The input acting during ``step``, by the core's delay rule."""
-        index = step - int(self.spec.delay_steps(step))
-        if index < 0 or not self.sent:
+        """The input acting during ``step``, by the core's delay rule (:func:`arrived_command`)."""
+        index = arrived_command(step, int(self.spec.delay_steps(step)), len(self.sent) - 1)
+        if index < 0:
             return np.zeros((*state.shape[:-1], self.gamma.shape[1]))
-        return self.sent[min(index, len(self.sent) - 1)]
+        return self.sent[index]
 
     def _predict(self, state: np.ndarray, step: int) -> np.ndarray:
         return state @ self.phi.T + self._applied(step, state) @ self.gamma.T + self.drift

@@ -15,14 +15,16 @@ product.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections.abc import Mapping
 from types import MappingProxyType
 
 import numpy as np
 
+from sail_env.physics.blas import one_blas_thread, single_threaded
 from sail_env.physics.config import SailConfig, moment_of_inertia
-from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, sample_uniform, zoh_discretize
+from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, zoh_discretize
 from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_growth_rate,
                                     moment_propagator, second_moment)
 from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
@@ -31,8 +33,6 @@ from sail_env.physics.pointing import envelope_table, peak_speed
 
 #: The sail has left the small-angle regime the model is valid in.
 MAX_TILT_RAD = 0.05
-#: The states :meth:`PlanarPlant.diverged` bounds (an array: a list index is converted at every step).
-LIMITED_STATES = np.array([X, THETA])
 #: The parameters a spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("sail_mass_kg", "craft_mass_kg", "strut_length_m", "com_distance_m", "curvature_radius_m")
 #: Largest growth ``e^GROWTH_PER_PIECE`` of one piece of a long propagation: from inside the
@@ -41,6 +41,10 @@ GROWTH_PER_PIECE = 20.0
 #: Most piece propagators a coast of a time-varying model builds in one call: k environments
 #: build ``max(1, COAST_BATCH // k)`` pieces at a time (a few MB of generators).
 COAST_BATCH = 128
+#: Smallest batch whose step and envelope products a BLAS library could thread (OpenBLAS threads a
+#: product above ~2.6e5 multiply-adds; the envelope's is k × ~13 × ~600): below it the ~2 µs of
+#: :func:`~sail_env.physics.blas.one_blas_thread` would only slow a single environment's step.
+THREADED_BATCH = 8
 
 
 @dataclasses.dataclass
@@ -88,6 +92,11 @@ def _pad_rows(table: np.ndarray, width: int) -> np.ndarray:
     return np.concatenate([table, np.repeat(table[:, -1:], width - table.shape[1], axis=1)], axis=1)
 
 
+def _batch_threads(k: int) -> contextlib.AbstractContextManager:
+    """One BLAS thread for a batch of ``k`` environments large enough to be threaded."""
+    return one_blas_thread() if k >= THREADED_BATCH else contextlib.nullcontext()
+
+
 class LinearPlant:
     """What every batched linear plant shares: the parameter draw, the exact step (with the push
     as a polynomial in its relative error), the envelope and the coast.
@@ -111,6 +120,10 @@ class LinearPlant:
     impulse_rows: tuple[int, ...] = ()
     #: Quantities a start may name but not change (the 3D sail's spin); none by default.
     fixed_state: Mapping[str, float] = MappingProxyType({})
+    #: The divergence rule as data: the sail has left the beam or the small-angle regime when the
+    #: Euclidean norm of a group's state rows (at most two) exceeds that group's column of
+    #: ``PlantParams.limits`` (or is NaN). The compiled step and :meth:`diverged` both read it.
+    divergence_groups: tuple[tuple[int, ...], ...]
 
     def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, beam_jitter_m: float,
                  push_noise: float) -> None:
@@ -144,12 +157,21 @@ class LinearPlant:
     # ------------------------------------------------------------------ parameters
     def draw(self, rng: np.random.Generator) -> np.ndarray:
         """Per-episode factors of :attr:`spread_fields` (all one without spread; draws nothing then)."""
-        if not self.parameter_spread:
-            return np.ones(self.n_factors)
-        return sample_uniform(rng, 1 - self.parameter_spread, 1 + self.parameter_spread, self.n_factors)
+        return self.factors(rng.random((1, self.n_draws)))[0]
 
+    def factors(self, uniforms: np.ndarray) -> np.ndarray:
+        """The factors (k, n_factors) of uniform numbers in [0, 1) (k, :attr:`n_draws`): what
+        :meth:`draw` makes of its generator's numbers, for a batch drawn one call per environment."""
+        if not self.parameter_spread:
+            return np.ones((len(uniforms), self.n_factors))
+        low, high = 1 - self.parameter_spread, 1 + self.parameter_spread
+        return low + (high - low) * uniforms
+
+    @single_threaded
     def params(self, factors: np.ndarray) -> PlantParams:
-        """Parameters for environments with the given factors (k, n_factors); shared without spread."""
+        """Parameters for environments with the given factors (k, n_factors); shared without spread.
+        Built with one BLAS thread (:mod:`sail_env.physics.blas`), as are :meth:`coast` and the batched
+        :meth:`step` and :meth:`peak_speed`."""
         return self._shared if self._shared is not None else self._build(factors, shared=False)
 
     def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
@@ -174,7 +196,8 @@ class LinearPlant:
         """One control step with ``u`` held; ``push`` (k,) is the relative push error ε of the step."""
         n = self.n_states
         z = np.concatenate([x, self.with_bias(u)], axis=-1)
-        y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
+        with _batch_threads(len(z)):
+            y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
         if push is None:
             return y[:, :n]
         eps = push[:, None]
@@ -184,7 +207,13 @@ class LinearPlant:
         return out
 
     def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
+        """Whether each sail has left the beam or the small-angle regime by :attr:`divergence_groups`
+        (NaN counts as left)."""
+        inside = np.ones(len(x), dtype=bool)
+        for column, rows in enumerate(self.divergence_groups):
+            size = np.abs(x[:, rows[0]]) if len(rows) == 1 else np.hypot(x[:, rows[0]], x[:, rows[1]])
+            inside &= size <= p.limits[:, column]
+        return ~inside
 
     def start_limits(self) -> np.ndarray:
         """Largest size of each state component (n,) a start may have: inside the beam and the
@@ -193,7 +222,8 @@ class LinearPlant:
 
     def peak_speed(self, p: PlantParams, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Largest lateral speed [m/s] the sail would reach with ``u`` held (the envelope)."""
-        return peak_speed(p.envelope[0] if p.shared else p.envelope, x, self.with_bias(u), len(self.velocity_rows))
+        with _batch_threads(len(x)):
+            return peak_speed(p.envelope[0] if p.shared else p.envelope, x, self.with_bias(u), len(self.velocity_rows))
 
     def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
         """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
@@ -214,6 +244,7 @@ class LinearPlant:
         (k,): a float, or (k, 1)."""
         return self.beam_jitter_m
 
+    @single_threaded
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
               normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Propagate ``duration`` (k,) seconds from flight time ``start_s`` (k,) with ``u`` held and
@@ -304,6 +335,8 @@ class PlanarPlant(LinearPlant):
     spread_fields = SPREAD_FIELDS
     jitter_inputs = (0,)
     velocity_rows = (VX,)
+    #: The sail has left the beam (``|X|`` beyond the aperture) or ``|θ|`` beyond ``min(a/Lc, MAX_TILT_RAD)``.
+    divergence_groups = ((X,), (THETA,))
 
     def __init__(self, config: SailConfig, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0) -> None:
@@ -351,12 +384,6 @@ class PlanarPlant(LinearPlant):
         # |Lc θ| ≤ a and |θ| ≤ MAX_TILT_RAD in one bound on |θ|.
         limits = np.stack([np.full(len(lc), c.aperture_radius_m), np.minimum(c.aperture_radius_m / lc, MAX_TILT_RAD)], 1)
         return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), limits, growth, shared)
-
-    def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
-        """The sail has left the beam (``|X|`` or ``|Lc θ|`` beyond the aperture) or the small-angle
-        regime; NaN counts as left."""
-        inside = np.abs(x[:, LIMITED_STATES]) <= p.limits
-        return ~(inside[:, 0] & inside[:, 1])
 
     @property
     def acceleration_m_s2(self) -> float:

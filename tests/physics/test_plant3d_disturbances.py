@@ -95,9 +95,9 @@ def test_window_impacts_are_a_compound_poisson_process():
     assert rate[0] * spec.dt == pytest.approx(0.5)
     core = EpisodeCore(spec, n)
     core.reset(np.arange(n), [np.random.default_rng(seed) for seed in range(n)], np.zeros((n, 8)))
-    x0 = core.x.copy()
+    x0 = core.state.x.copy()
     core.step(np.zeros((n, 4)))
-    kicks = (core.x - plant.step(p, x0, np.zeros((n, 4))))[:, list(plant.impulse_rows)] / std
+    kicks = (core.state.x - plant.step(p, x0, np.zeros((n, 4))))[:, list(plant.impulse_rows)] / std
     mean, variance = kicks.mean(axis=0), kicks.var(axis=0)
     assert np.all(np.abs(mean) < 4 * np.sqrt(0.5 / n))
     np.testing.assert_allclose(variance, 0.5, rtol=0.15)
