@@ -12,8 +12,9 @@ from gymnasium import spaces
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
 from sail_env.core.state import EpisodeState
+from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.envs.rendering import SailRenderer
-from sail_env.physics.config import SailConfig, real_number
+from sail_env.physics.config import SailConfig
 
 _ONE = np.zeros(1, dtype=np.int64)
 
@@ -179,12 +180,8 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def reset(self, *, seed: int | None = None,
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=seed)
-        initial = (options or {}).get("initial_state")
-        if initial is not None:
-            initial = initial_state(initial, self.episode_spec)[None]
-            self.episode_spec.check_start(initial, "initial_state")
-        self.core.reset(_ONE, [self.np_random], initial)
+        super().reset(seed=reset_seeds(seed, 1)[0])
+        self.core.reset(_ONE, [self.np_random], reset_states(options, self.episode_spec, 1, arrays=False))
         if self.render_mode is not None:
             self._trajectory = [(self._time(), self.state.x[0].copy(), np.zeros(2))]
         return self.core.observe()[0], self._info()
@@ -248,24 +245,3 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _named(self, state: np.ndarray) -> dict[str, float]:
         return dict(zip(self._state_names, state.tolist()))
-
-
-def initial_state(given: Mapping[str, float], spec: EpisodeSpec) -> np.ndarray:
-    """The launch state from ``options["initial_state"]``: a dict of real numbers (missing keys are zero).
-
-    Keys are the plant's state names, and any of its ``fixed_state`` (quantities the task
-    fixes, such as the 3D sail's spin), which must then have the task's value.
-    """
-    names, fixed = spec.plant.state_names, spec.plant.fixed_state
-    if not isinstance(given, Mapping):
-        raise ValueError(f"initial_state must be a dict with keys among {(*names, *fixed)}, got {given!r}")
-    unknown = set(given) - set(names) - set(fixed)
-    if unknown:
-        raise ValueError(f"initial_state keys must be among {(*names, *fixed)}, got {sorted(unknown)}")
-    for key, value in fixed.items():
-        if key in given and real_number(given[key], f"initial_state[{key!r}]") != value:
-            raise ValueError(f"initial_state[{key!r}] is fixed by the task at {value}, got {given[key]}")
-    state = np.array([real_number(given.get(name, 0.0), f"initial_state[{name!r}]") for name in names])
-    if not np.all(np.isfinite(state)):
-        raise ValueError(f"initial_state must be finite, got {dict(given)}")
-    return state

@@ -31,7 +31,7 @@ from gymnasium.vector.utils import batch_space
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
 from sail_env.core.state import EpisodeState
-from sail_env.envs.planar import initial_state
+from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.physics.config import SailConfig
 
 
@@ -98,28 +98,11 @@ class LightSailVectorEnv(VectorEnv):
         ``options={"initial_state": {...}}`` starts every environment from that state
         (``LightSailEnv``'s keys), ``{"initial_state": array (N, n)}`` each from its row.
         """
-        if seed is None:
-            seeds: Sequence[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed must be an int or {self.num_envs} seeds, got {len(seeds)}")
+        seeds = reset_seeds(seed, self.num_envs)
         super().reset(seed=seeds[0])
         if self._rngs is None or seed is not None:
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        given, n = (options or {}).get("initial_state"), self.episode_spec.plant.n_states
-        if isinstance(given, Mapping):
-            given = np.tile(initial_state(given, self.episode_spec), (self.num_envs, 1))
-        elif given is not None:
-            given = np.asarray(given)
-            if given.shape != (self.num_envs, n) or given.dtype.kind not in "fiu" or not np.all(np.isfinite(given)):
-                raise ValueError(f"initial_state must be a dict or a finite real array of shape ({self.num_envs}, {n}), "
-                                 f"got {given.dtype} {given.shape}")
-            given = given.astype(np.float64)
-        if given is not None:
-            self.episode_spec.check_start(given, "initial_state")
+        given = reset_states(options, self.episode_spec, self.num_envs, arrays=True)
         self.core.reset(self._all, self._rngs, given)
         return self.core.observe(), {"state": self.state.x.copy(), "t": self._times()}
 
