@@ -86,8 +86,8 @@ def interleaved(workloads: dict[str, Workload], rounds: int) -> dict[str, dict[s
 
 
 def ratio(subject: dict, peer: dict) -> str:
-    """``wall (cpu)`` ratio of two :func:`interleaved` results."""
-    return f"{subject['rate'] / peer['rate']:.2f} ({subject['cpu_rate'] / peer['cpu_rate']:.2f})"
+    """``wall (cpu)`` ratio of two :func:`interleaved` results, to two significant digits."""
+    return f"{subject['rate'] / peer['rate']:.2g} ({subject['cpu_rate'] / peer['cpu_rate']:.2g})"
 
 
 def episode_steps(env_id: str) -> int:

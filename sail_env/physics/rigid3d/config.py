@@ -13,7 +13,7 @@ import dataclasses
 import math
 import numbers
 
-import scipy.stats
+import scipy.special
 
 from sail_env.physics.config import SEED, real_number
 from sail_env.physics.constants import SPEED_OF_LIGHT
@@ -189,7 +189,7 @@ class RigidSailConfig:
         sigma = 0.5 * (self.lobe_waist_m if multi else outer)
         centre = outer if multi else 0.0
         # A Gaussian of standard deviation σ per axis centred at r: |p|²/σ² is non-central χ² with 2 degrees.
-        return float(scipy.stats.ncx2.cdf((a / sigma) ** 2, 2, (centre / sigma) ** 2))
+        return float(scipy.special.chndtr((a / sigma) ** 2, 2, (centre / sigma) ** 2))  # ncx2.cdf without importing scipy.stats (0.35 s)
 
     @property
     def outer_beam_radius_m(self) -> float:
