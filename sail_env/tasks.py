@@ -26,6 +26,7 @@ jitter's benchmark level recomputed for that beam (docs/physics.md §14): the re
 from __future__ import annotations
 
 from sail_env.physics.config import DEEP_DISH, SEED
+from sail_env.physics.rigid3d.uncertainty import TASK_UNCERTAINTY
 from sail_env.physics.rigid3d.jitter import (GROUND_JITTER_BENCHMARK_RAD, GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD,
                                             diffraction_length_m)
 
@@ -83,6 +84,12 @@ RIGID3D_TASKS["LightSail3DRealistic-v1"] = {
     **RIGID3D_TASKS["LightSail3DRealistic-v0"], "beam_profile": "gaussian",
     "beam_radius_m": GAUSSIAN_WAIST_OVER_APERTURE * SEED.aperture_radius_m,
     "ground_jitter_rad": GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD}
+
+#: LightSailUncertain-v0: LightSail3DRealistic-v1 whose sail the station knows only to within
+#: :data:`~sail_env.physics.rigid3d.uncertainty.TASK_UNCERTAINTY` (curvature ±20 %, absorptivity ±50 %,
+#: power at the sail ±20 %, a beam offset ±1 cm; per episode, unobserved; docs/physics.md §16).
+RIGID3D_TASKS["LightSailUncertain-v0"] = {**RIGID3D_TASKS["LightSail3DRealistic-v1"],
+                                          "model_uncertainty": TASK_UNCERTAINTY}
 
 TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}
 

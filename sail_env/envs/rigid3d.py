@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -11,6 +12,7 @@ from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics.config import SEED
 from sail_env.physics.plant3d import RigidFlight
 from sail_env.physics.rigid3d.config import SHAPES, RigidSailConfig
+from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainFlight
 
 #: ``(x, y, vx, vy, θx, θy, ωx, ωy)``: LightSail-v0's start box on each axis.
 START_HALF_WIDTHS_3D = (5e-3, 5e-3, 0.1, 0.1, 2e-3, 2e-3, 1e-5, 1e-5)
@@ -28,7 +30,8 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
                  sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0, cutoff_jitter_s: float = 0.0, light_delay: bool = False,
-                 parameter_spread: float = 0.0) -> EpisodeSpec:
+                 parameter_spread: float = 0.0,
+                 model_uncertainty: ModelUncertainty | dict[str, float] | None = None) -> EpisodeSpec:
     """The :class:`EpisodeSpec` of the 3D keywords (see :class:`LightSail3DEnv`); a bad value is a
     ``ValueError`` naming its keyword."""
     if sail_shape not in SHAPES:
@@ -44,7 +47,15 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
     sail = RigidSailConfig(shape=sail_shape, beam_profile=beam_profile, curvature_radius_m=curvature_radius_m,
                            com_distance_m=com_distance_m, absorptivity=absorptivity,
                            reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
-    flight = RigidFlight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
+    if isinstance(model_uncertainty, dict):
+        model_uncertainty = ModelUncertainty(**model_uncertainty)
+    elif not (model_uncertainty is None or isinstance(model_uncertainty, ModelUncertainty)):
+        raise ValueError(f"model_uncertainty must be a ModelUncertainty, a dict of its fields or None, "
+                         f"got {model_uncertainty!r}")
+    # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainFlight.
+    make_flight = RigidFlight if model_uncertainty is None else functools.partial(UncertainFlight,
+                                                                                  uncertainty=model_uncertainty)
+    flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
                          relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
                          diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
                          dust_density_m3=dust_density_m3, dust_grain_mass_kg=dust_grain_mass_kg,
@@ -152,6 +163,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``start_half_widths`` | see above | 8 half-widths in state order |
     | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` |
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power |
+    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v0``, see below) |
 
     ``info["state"]`` holds the true state in SI by name and ``info["t"]`` the flight
     time; the control step is ``env.unwrapped.dt``. With ``relativistic=True`` the axial flight
