@@ -3,7 +3,8 @@
     python evaluate.py --agent passive --agent lqr --agent runs/LightSail-v0-ppo-0/best_model.zip
     python evaluate.py --env LightSailRealistic-v0 --agent lqg --agent PATH.zip --episodes 200
 
-``--agent`` is ``passive``, ``lqr``, ``lqg``, a ceiling ``lqr-oracle`` or ``lqg-oracle`` (bounds that
+``--agent`` is ``passive``, ``lqr``, ``lqg``, ``lqg-mm`` (3D tasks: a bank of LQGs on a grid of models,
+acting with the one that predicts best, agents/adaptive.py), a ceiling ``lqr-oracle`` or ``lqg-oracle`` (bounds that
 read the simulator's true state and parameter draw, agents/oracle.py; no station could field them)
 or the path of a model saved by ``train.py`` (loaded with the VecNormalize statistics beside it, acting deterministically; its run's
 ``run.json`` says whether it needs them and which env it was trained on).
@@ -37,6 +38,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
+from agents.adaptive import MultipleModelLQGAgent  # noqa: E402
 from agents.oracle import OracleLQGAgent, OracleLQRAgent, attach  # noqa: E402
 from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, describe, fail  # noqa: E402
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
@@ -46,7 +48,9 @@ from sail_env.tasks import TASKS  # noqa: E402
 
 BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent,
                                                         # Bounds that read the simulator's truth (agents/oracle.py).
-                                                        "lqr-oracle": OracleLQRAgent, "lqg-oracle": OracleLQGAgent}
+                                                        "lqr-oracle": OracleLQRAgent, "lqg-oracle": OracleLQGAgent,
+                                                        # Multiple-model adaptive LQG for the 3D tasks (agents/adaptive.py).
+                                                        "lqg-mm": MultipleModelLQGAgent}
 #: Apart from the seeds train.py trains and selects models on.
 DEFAULT_SEED = 100_000
 #: The tilt on the x axis (the planar model's θ, the 3D model's θy) and the beam inputs acting on it:

@@ -147,13 +147,15 @@ class LQGAgent:
             step += moving
         return state, step
 
-    def act(self, observation: np.ndarray) -> np.ndarray:
-        single = np.ndim(observation) == 1
-        measured, shown = self.measure(np.atleast_2d(observation))
+    def command(self, observations: np.ndarray) -> np.ndarray:
+        """The beam input (N, m) [SI] for observations (N, D), remembered as sent; the filter's
+        innovation (the measurement minus its prediction) is left in :attr:`innovation`."""
+        measured, shown = self.measure(observations)
         if self.estimate is None:
             self.estimate, self.estimate_step = measured, shown
         self.estimate, self.estimate_step = self._advance(self.estimate, self.estimate_step, shown)
-        self.estimate = self.estimate + _apply(self.design.kalman_gain, measured - self.estimate)
+        self.innovation = measured - self.estimate
+        self.estimate = self.estimate + _apply(self.design.kalman_gain, self.innovation)
         # Predict to the step at which the new command starts to act.
         now = np.full(len(measured), self.step)
         prediction, _ = self._advance(self.estimate, self.estimate_step, now + self.delay(now))
@@ -161,4 +163,8 @@ class LQGAgent:
         command = np.clip(-_apply(self.design.gain, prediction), -scale, scale)
         self.sent.append(command)
         self.step += 1
-        return self.spec.input_to_action(command[0] if single else command)
+        return command
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        command = self.command(np.atleast_2d(observation))
+        return self.spec.input_to_action(command[0] if np.ndim(observation) == 1 else command)

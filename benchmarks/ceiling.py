@@ -8,7 +8,8 @@ Every agent plays episodes ``seed … seed + n − 1`` (``evaluate.py``'s runner
 the comparison is paired. For agent A against LQG: the difference of success rates, a 95 % paired
 bootstrap interval (episodes resampled together, 10,000 resamples, fixed seed) and McNemar's exact
 two-sided p-value on the discordant pairs (A wins where LQG loses: ``b``; the reverse: ``c``).
-Results go to ``--out`` (JSON, rewritten after every agent, so a long run keeps what it measured).
+Results go to ``--out`` (JSON, rewritten after every agent, so a long run keeps what it measured); agents
+run again on the same episodes are added to (or replace) that task's earlier rows.
 """
 
 from __future__ import annotations
@@ -55,8 +56,12 @@ def measure(env_id: str, agents: list[str], episodes: int, seed: int, out: Path,
     """Run ``agents`` on ``env_id`` (with ``env_kwargs``) and store the rows under ``results[key]``
     (default: the env id), writing ``out`` after every agent."""
     key = key or env_id
-    entry = results.setdefault(key, {"env": env_id, "env_kwargs": {k: repr(v) for k, v in (env_kwargs or {}).items()},
-                                     "episodes": episodes, "seed": seed, "agents": {}})
+    fresh = {"env": env_id, "env_kwargs": {k: repr(v) for k, v in (env_kwargs or {}).items()}, "episodes": episodes,
+             "seed": seed, "agents": {}}
+    if {k: v for k, v in results.get(key, {}).items() if k != "agents"} != {k: v for k, v in fresh.items()
+                                                                           if k != "agents"}:
+        results[key] = fresh  # other episodes: start afresh; the same ones: add agents to them
+    entry = results[key]
     spec = gym.make(env_id, **(env_kwargs or {})).unwrapped.episode_spec
     outcomes: dict[str, np.ndarray] = {}
     for name in agents:
@@ -65,10 +70,11 @@ def measure(env_id: str, agents: list[str], episodes: int, seed: int, out: Path,
         outcomes[name] = np.array([e["success"] for e in played])
         entry["agents"][name] = {**summarise(played), "seconds": round(time.perf_counter() - start, 1),
                                  "success": outcomes[name].astype(int).tolist()}
-        if REFERENCE in outcomes:
+        if REFERENCE in entry["agents"]:
+            reference = np.array(entry["agents"][REFERENCE]["success"], bool)
             for other, row in entry["agents"].items():
                 if other != REFERENCE:
-                    row["vs_lqg"] = paired_difference(np.array(row["success"], bool), outcomes[REFERENCE])
+                    row["vs_lqg"] = paired_difference(np.array(row["success"], bool), reference)
         out.write_text(json.dumps(results, indent=1, allow_nan=False))
         print(f"{key} {name}: {outcomes[name].mean():.1%}", flush=True)
     return entry
@@ -101,10 +107,11 @@ def main(argv: list[str] | None = None) -> None:
     one_thread_per_process()
     results = json.loads(args.out.read_text()) if args.out.is_file() else {}
     agents = args.agent or list(DEFAULT_AGENTS)
-    if REFERENCE not in agents:
-        agents.insert(0, REFERENCE)
     for env_id in args.env or DEFAULT_ENVS:
-        results.pop(env_id, None)
+        have = results.get(env_id, {})
+        if REFERENCE not in agents and not (REFERENCE in have.get("agents", {}) and have["episodes"] == args.episodes
+                                            and have["seed"] == args.seed):
+            agents.insert(0, REFERENCE)
         entry = measure(env_id, agents, args.episodes, args.seed, args.out, results)
         print(f"\n{env_id}: {args.episodes} paired episodes (seeds {args.seed}…{args.seed + args.episodes - 1})\n")
         print(table(entry), flush=True)
