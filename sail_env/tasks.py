@@ -21,6 +21,10 @@ the 3D deep dish in a flat-top spot of exactly the aperture's size, the seed's i
 edge on the rim makes the force kinked at zero offset. ``LightSail3DRealistic-v1`` is the same task
 in a Gaussian beam of waist ``0.8 a`` (:data:`GAUSSIAN_WAIST_OVER_APERTURE`), with the ground
 jitter's benchmark level recomputed for that beam (docs/physics.md §14): the realistic 3D task.
+``LightSailUncertain-v0`` is v1 whose sail the station does not know: per episode, unobserved, the dish's
+curvature under load (±20 %), the absorptivity (±50 %), the power that reaches the sail (±20 %) and a
+constant beam offset at the sail (±1 cm per axis) are drawn (docs/physics.md §16, with each size's source
+and which are guesses).
 """
 
 from __future__ import annotations

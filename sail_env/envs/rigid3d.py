@@ -187,8 +187,21 @@ class LightSail3DEnv(LightSailEnv):
     constant torque about y and the equilibrium tilts until the force line passes through the CoM;
     it is modelled fixed in the lab frame (with spin it turns at ``Ω`` in truth, see §15).
 
+    ``model_uncertainty`` (``LightSailUncertain-v0``: curvature ±20 %, absorptivity ±50 %, power at the
+    sail ±20 %, a beam offset ±1 cm; docs/physics.md §16) draws per episode what the ground station
+    designs on but cannot know in flight, on top of ``parameter_spread``; nothing of it is observed:
+
+    | drawn (uniform) | acts on | reset cost |
+    |---|---|---|
+    | curvature ``R₀(1 ± c)`` | every radiation term, the push, the inertia | a cubic spline over 9 radii tabled once |
+    | absorptivity ``α₀(1 ± u)`` | every radiation term, the input matrix's rank, the push | exact: the force is linear in ``α`` |
+    | power ``(1 ± p)`` | the push and every stiffness | a row scaling |
+    | beam offset ``± b`` per axis | a constant drive ``B[:, :2] b`` | a column |
+
     ## Version History
 
+    * ``LightSailUncertain-v0`` (lightsail-gym 0.2.0): initial release; ``LightSail3DRealistic-v1``'s
+      keywords plus ``model_uncertainty`` (``sail_env.tasks``, docs/physics.md §16).
     * ``LightSail3DRealistic-v1`` (lightsail-gym 0.2.0): the realistic task in a Gaussian beam of
       waist ``0.8 a`` instead of a flat-top spot of exactly the aperture's size, whose edge on the
       rim made the force kinked at zero offset (the linear window 31 % of the amplitude off the

@@ -14,9 +14,9 @@ that, per episode, and none is observed (sizes: the task's, :data:`TASK_UNCERTAI
 They act on top of the realistic task's ±10 % spread of mass, inertia and beam power, which the station
 also does not observe. Every draw is cheap: no surface quadrature runs at a reset.
 
-* The radiation force is linear in the absorptivity at a fixed sail (``ρ = 1 − α``: the element's
-  force is ``2 I cos²θᵢ n + α I (k − 2 cos θᵢ n)``, docs/physics.md §7), so its Jacobian, push and every
-  radiation term of §9 is ``X₀ + α X₁``: two linearisations span every ``α``.
+* The radiation force is linear in the absorptivity at a fixed sail (``ρ = 1 − α``: per unit area
+  the element's force is ``(I/c)(2 cos²θᵢ n + α cos θᵢ (k − 2 cos θᵢ n))``, docs/physics.md §7), so its
+  Jacobian, push and every radiation term of §9 is ``X₀ + α X₁``: two linearisations span every ``α``.
 * The curvature changes the geometry, the push and the inertia: :class:`CurvatureTable` linearises at
   :data:`CURVATURE_NODES` radii over the draws' range (at ``α = 0`` and ``α = 1``) and interpolates each
   entry by a cubic spline in ``R`` (tested against a direct linearisation between nodes).
@@ -26,8 +26,9 @@ also does not observe. Every draw is cheap: no surface quadrature runs at a rese
 The draw's terms enter the model as differences from the nominal sail's, so a draw of all ones is
 exactly the nominal model. In a widened spot (beyond ``L0``) a draw takes the nominal sail's change
 with the spot plus its own difference at ``s = 1`` (second order in the draw times the widening, which
-the v1 task's fastest draws keep below 1.2). The gyroscopic coupling ``I_a Ω / I_t`` is held at the
-nominal dish's (it changes by 0.2 % over ``R₀ ± 20 %``, and is 7e-5 of the slow mode).
+the task's fastest draws keep below 1.2). The gyroscopic coupling ``I_a Ω / I_t`` is held at the
+nominal dish's: it is 1.05e-2 rad/s at the task's 1 rad/s spin (1.7e-4 of the slow mode, 60.6 rad/s)
+and changes by −1.3 % to +2.5 % over ``R₀ ± 20 %``, 4e-6 of the slow mode.
 """
 
 from __future__ import annotations
