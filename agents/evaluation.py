@@ -211,6 +211,18 @@ def plot_pointing(results: dict[str, list[dict[str, Any]]], path: Path) -> None:
     save_with_legend_above(fig, ax, path)
 
 
+#: Markers per curve of a trajectory plot (they tell the agents apart; the line is the data).
+TRAJECTORY_MARKERS = 10
+
+
+def marker_steps(steps: int, curve: int) -> list[int]:
+    """Where curve number ``curve`` of ``steps`` points puts its markers: at random steps (seeded by
+    the curve's number), because markers at any regular spacing sample the 0.09 s oscillation into
+    a false slow wave (aliasing); each curve draws its own, so they do not hide each other."""
+    rng = np.random.default_rng(curve)
+    return sorted(rng.choice(steps, size=min(TRAJECTORY_MARKERS, steps), replace=False).tolist())
+
+
 def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path) -> None:
     """X, θ and the beam input over the control window, every agent from the same start.
 
@@ -222,9 +234,7 @@ def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path) -> None:
     for k, (ax, label) in enumerate(zip(axes, labels)):
         curves = {name: steps[:, k + 1] * 1e3 for name, steps in trajectories.items()}
         for i, (name, curve) in enumerate(curves.items()):
-            times = trajectories[name][:, 0]
-            every = max(len(times) // 10, 1)  # markers staggered per agent, so they do not hide each other
-            ax.plot(times, curve, markevery=(i * every // max(len(curves), 1), every), **styles[name])
+            ax.plot(trajectories[name][:, 0], curve, markevery=marker_steps(len(curve), i), **styles[name])
         ax.set_ylabel(label, fontsize=8)
         note_coinciding(ax, curves)
     axes[-1].set_xlabel("flight time [s]")

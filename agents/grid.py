@@ -3,7 +3,7 @@ Optuna trial in a relational database, taken by whichever worker asks next.
 
     python -m agents.grid run                 # a worker: takes cells until none is left
     python -m agents.grid status              # done, running (where), failed, what remains
-    python -m agents.grid render --readme README.md   # the README's table from the database
+    python -m agents.grid render --readme docs/learners.md   # the table in docs/learners.md from the database
     python -m agents.grid redo --agents lqg   # queue cells again after their code changed
 
 The default storage is a SQLite file, ``runs/grid.db``: nothing to set up. With

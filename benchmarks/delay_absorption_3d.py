@@ -1,4 +1,4 @@
-"""What light delay and absorption do to active control of the 3D sail (README "The 3D tasks").
+"""What light delay and absorption do to active control of the 3D sail (docs/tasks.md, "The 3D tasks").
 
     python -m benchmarks.delay_absorption_3d [--episodes 200]   # from the repo root
 

@@ -1,6 +1,6 @@
 """Speed of the envs and of training, as ratios to a peer run in the same process, interleaved.
 
-    python -m benchmarks.speed [--quick] [--rounds K] [--sections single vector ...] [--readme README.md]
+    python -m benchmarks.speed [--quick] [--rounds K] [--sections single vector ...] [--readme docs/performance.md]
 
 These 2-core machines are shared and their CPUs differ, so no absolute speed here means much on
 its own. Every ratio is subject ÷ peer where the two take turns (peer, subject, peer, subject, …,
@@ -21,7 +21,8 @@ Sections (``--sections``):
 
 Torch and BLAS run on one thread, as ``train.py`` runs them, except in the ``episode`` section's
 comparison. Prints markdown tables, writes JSON (the CPU model, versions, every round) to ``--out``
-and with ``--readme`` puts the tables between the README's ``speed-table`` markers.
+and with ``--readme FILE`` puts the tables between that markdown file's ``speed-table`` markers
+(``docs/performance.md``).
 """
 
 from __future__ import annotations
@@ -259,7 +260,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--ppo-tasks", nargs="+", choices=sorted(TASKS), default=["LightSail-v0", HARD_TASK],
                         help="ppo section: the tasks")
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/speed.json"), help="JSON of every round")
-    parser.add_argument("--readme", type=Path, help="put the tables between this README's speed-table markers")
+    parser.add_argument("--readme", type=Path, help="put the tables between this markdown file's speed-table markers")
     args = parser.parse_args(argv)
     cli.distinct(args.sections, "--sections")
     cli.distinct(args.sizes, "--sizes")

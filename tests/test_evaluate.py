@@ -7,6 +7,7 @@ import json
 import math
 import shutil
 import tempfile
+
 from pathlib import Path
 
 import gymnasium as gym
@@ -301,3 +302,14 @@ def test_help_has_no_restructuredtext_markup(capsys: pytest.CaptureFixture) -> N
 
 def test_a_diverged_pointing_has_no_unit() -> None:
     assert evaluate.fmt_rad(None) == "diverged" and evaluate.fmt_rad(1.5e-10) == "1.50e-10 rad"
+
+
+def test_trajectory_markers_are_not_a_regular_sampling_that_aliases_the_oscillation() -> None:
+    """Markers every 0.1 s sampled the 0.089 s oscillation into a false slow wave (issue 20)."""
+    from agents.evaluation import TRAJECTORY_MARKERS, marker_steps
+
+    for curve in range(3):
+        steps = marker_steps(201, curve)
+        assert len(steps) == TRAJECTORY_MARKERS and 0 <= steps[0] and steps[-1] <= 200
+        assert len(set(np.diff(steps))) > TRAJECTORY_MARKERS // 2  # no regular stride
+    assert marker_steps(201, 0) != marker_steps(201, 1) and marker_steps(3, 0) == [0, 1, 2]

@@ -1,4 +1,4 @@
-"""``python -m sail_env.paper``: its numbers against independent closed forms and the seed's equations."""
+"""``python -m sail_env.analysis.paper``: its numbers against independent closed forms and the seed's equations."""
 
 import json
 import math
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.integrate
 
-from sail_env import paper
+from sail_env.analysis import paper
 from sail_env.physics import DEEP_DISH, FLAT, SEED, PlanarModel
 from sail_env.physics.constants import LIGHT_YEAR, SPEED_OF_LIGHT, STEFAN_BOLTZMANN
 from tests.conftest import seed_rhs
@@ -41,7 +41,7 @@ def test_writes_report_and_figures(run):
         png = (out / f"{name}.png").read_bytes()
         assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 10_000
     text = (out / "report.md").read_text()
-    assert f"`python -m sail_env.paper --out {out} --quick`" in text
+    assert f"`python -m sail_env.analysis.paper --out {out} --quick`" in text
     assert report["quick"] is True and paper.QUICK_NOTE in text
     assert report["versions"]["numpy"] == np.__version__
     assert f"{report['relativity']['t_0.2c_doppler_s']:.1f} s" in text

@@ -53,3 +53,19 @@ def one_way_light_delay_s(acceleration_m_s2: float, t: float) -> float:
     controllable flight ``β < 1e-2`` and ``D(t)/c`` is accurate to a per cent.
     """
     return distance_flown_m(acceleration_m_s2, t) / SPEED_OF_LIGHT
+
+
+# The ground array and its laser (docs/physics.md §12).
+#: Laser wavelength of the Starshot point design (Parkin 2018).
+LASER_WAVELENGTH_M = 1.06e-6
+#: Diameter of the ground phased array: Lubin's (2016) DE-STAR 4, 10 km, 100 GW class.
+ARRAY_DIAMETER_M = 10e3
+#: Kulkarni, Lubin & Zhang's (2018) geometry factor for a circular array.
+CIRCULAR_ARRAY_FACTOR = 1.22
+
+
+def diffraction_length_m(spot_radius_m: float, array_diameter_m: float = ARRAY_DIAMETER_M,
+                         wavelength_m: float = LASER_WAVELENGTH_M) -> float:
+    """``L0 = d·D/(2λα)`` (Kulkarni, Lubin & Zhang 2018) for a spot of diameter ``D = 2 r``: the
+    distance up to which the array can keep its spot that small (it widens as ``D/L0`` beyond)."""
+    return array_diameter_m * 2.0 * spot_radius_m / (2.0 * wavelength_m * CIRCULAR_ARRAY_FACTOR)

@@ -82,7 +82,7 @@ def test_reflectivity_and_absorptivity_cannot_exceed_one_together():
 
 
 def test_table_command_prints_the_three_tables(capsys):
-    from sail_env.physics.rigid3d import table
+    from sail_env.analysis import tables3d as table
 
     table.main()
     out = capsys.readouterr().out

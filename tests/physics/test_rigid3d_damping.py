@@ -10,7 +10,7 @@ from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise
 from sail_env.physics.rigid3d.damping import (damped_linearisation, element_force_change, flight_e_folds,
                                               mode_damping_rates, rate_jacobian)
 from sail_env.physics.rigid3d.flight import fly
-from sail_env.physics.rigid3d.jitter import matched_sail
+from sail_env.analysis.jitter import matched_sail
 
 
 def boost(energy, momentum, beta):

@@ -9,11 +9,11 @@ import scipy.integrate
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel
 from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise
 from sail_env.physics.rigid3d.flight import fly
-from sail_env.physics.rigid3d.jitter import (ARRAY_DIAMETER_M, BENCHMARK_FRACTION, GROUND_JITTER_BENCHMARK_RAD,
-                                             GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD, GROUND_JITTER_PHYSICAL_RAD, FlightModel,
-                                             accumulate_covariance, analyse, diffraction_length_m,
-                                             ground_jitter_tolerance, jitter_intensity, matched_sail,
-                                             planar_tolerable_ground_jitter, speed_quantile)
+from sail_env.analysis.jitter import (BENCHMARK_FRACTION, GROUND_JITTER_PHYSICAL_RAD, FlightModel, accumulate_covariance,
+                                     analyse, ground_jitter_tolerance, jitter_intensity, matched_sail,
+                                     planar_tolerable_ground_jitter, speed_quantile)
+from sail_env.physics.mission import ARRAY_DIAMETER_M, diffraction_length_m
+from sail_env.tasks import GROUND_JITTER_BENCHMARK_RAD, GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD
 from sail_env.tasks import GAUSSIAN_WAIST_OVER_APERTURE, RIGID3D_TASKS
 
 

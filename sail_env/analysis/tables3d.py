@@ -1,6 +1,6 @@
 """Print the 3D model's tables: planar comparison, quadrature convergence, stability (docs/physics.md §9–§10).
 
-    python -m sail_env.physics.rigid3d.table
+    python -m sail_env.analysis.tables3d
 """
 
 from __future__ import annotations

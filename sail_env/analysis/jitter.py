@@ -35,6 +35,7 @@ import scipy.special
 from threadpoolctl import threadpool_limits
 
 from sail_env.physics.config import DEEP_DISH, SEED, SailConfig
+from sail_env.physics.mission import ARRAY_DIAMETER_M, LASER_WAVELENGTH_M, diffraction_length_m
 from sail_env.physics.planar import PlanarModel
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.rigid3d.body import RigidSail
@@ -42,6 +43,7 @@ from sail_env.physics.rigid3d.config import BEAM_PROFILES, RigidSailConfig
 from sail_env.physics.rigid3d.flight import Flight, fly
 from sail_env.physics.rigid3d.linearise import linearise
 from sail_env.physics.rigid3d.scales import ScaleTable
+from sail_env.tasks import GROUND_JITTER_BENCHMARK_RAD
 
 #: The control step the per-step levels refer to (the planar tasks' 5 ms).
 STEP_S = SEED.control_step_s
@@ -55,14 +57,6 @@ GROWTH_FLOOR = 1e-3
 CHANGE_LIMIT = 1e-3
 MAX_PHASE_RAD = 0.5
 
-# --- Physical inputs of the realistic flight (docs/physics.md §12) ---
-#: Laser wavelength of the Starshot point design (Parkin 2018).
-LASER_WAVELENGTH_M = 1.06e-6
-#: Diameter of the ground phased array: Lubin's (2016) DE-STAR 4, 10 km, 100 GW class.
-ARRAY_DIAMETER_M = 10e3
-#: Kulkarni, Lubin & Zhang's (2018) geometry factor for a circular array.
-CIRCULAR_ARRAY_FACTOR = 1.22
-
 # --- Proposed ground jitter for LightSail3DRealistic-v0 (docs/physics.md §12) ---
 #: A physically defensible level: one tenth of the diffraction angle λ/d of a 10 km array
 #: (1.06e-11 rad), per 5 ms step. Three orders of magnitude above what any sail in the
@@ -73,21 +67,6 @@ GROUND_JITTER_PHYSICAL_RAD = 0.1 * LASER_WAVELENGTH_M / ARRAY_DIAMETER_M
 #: the tolerance (per axis 2 nrad of the 4.1 nrad budget), and the control window's residual
 #: decides the score.
 BENCHMARK_FRACTION = 0.5
-#: That level, per 5 ms step, for the deep dish (R = 4 m) in a flat-top beam of its aperture on
-#: the relativistic flight with the L0 of a 10 km array (it tolerates 3.1e-15).
-GROUND_JITTER_BENCHMARK_RAD = 1.5e-15
-#: The same rule for LightSail3DRealistic-v1's beam, a Gaussian of waist 0.8 a whose spot widens
-#: beyond the same L0 (that of a spot of the aperture's radius): the deep dish tolerates 1.7e-15.
-GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD = 8.5e-16
-
-
-def diffraction_length_m(spot_radius_m: float, array_diameter_m: float = ARRAY_DIAMETER_M,
-                         wavelength_m: float = LASER_WAVELENGTH_M) -> float:
-    """``L0 = d·D/(2λα)`` (Kulkarni, Lubin & Zhang 2018) for a spot of diameter ``D = 2 r``: the
-    distance up to which the array can keep its spot that small (it widens as ``D/L0`` beyond)."""
-    return array_diameter_m * 2.0 * spot_radius_m / (2.0 * wavelength_m * CIRCULAR_ARRAY_FACTOR)
-
-
 def psd_from_step_std(std_rad: float, dt: float = STEP_S) -> float:
     """White-noise PSD [rad² s] of a jitter drawn afresh each step of ``dt`` and held."""
     return std_rad**2 * dt
@@ -308,7 +287,7 @@ def analyse(config: RigidSailConfig, relativistic: bool, array_diameter_m: float
     return ground_jitter_tolerance(FlightModel(sail, flight), start_s, segment_s, probability=probability)
 
 
-# --- The table and plot (python -m sail_env.physics.rigid3d.jitter --out jitter.png) ---
+# --- The table and plot (python -m sail_env.analysis.jitter --out jitter.png) ---
 
 SIZES = (0.5, 1.0, 1.5, 2.0)
 SAILS = (("seed dish R = 10 m", 10.0), ("deep dish R = 4 m", 4.0))

@@ -1,4 +1,4 @@
-"""The seed paper reproduced and corrected: ``python -m sail_env.paper --out DIR``.
+"""The seed paper reproduced and corrected: ``python -m sail_env.analysis.paper --out DIR``.
 
 The seed is Team 258, "Problem A: sending a light sail propelled nanocraft to Alpha
 Centauri" (MCM). This writes ``DIR/report.md``, ``DIR/report.json`` and PNG figures:
@@ -491,7 +491,7 @@ def render_markdown(report: dict) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sail_env.paper", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m sail_env.analysis.paper", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="output directory")
     parser.add_argument("--quick", action="store_true", help="fewer grid points (for tests)")
     argv = sys.argv[1:] if argv is None else list(argv)
