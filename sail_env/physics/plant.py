@@ -15,12 +15,14 @@ product.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections.abc import Mapping
 from types import MappingProxyType
 
 import numpy as np
 
+from sail_env.physics.blas import one_blas_thread, single_threaded
 from sail_env.physics.config import SailConfig, moment_of_inertia
 from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, sample_uniform, zoh_discretize
 from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_growth_rate,
@@ -41,6 +43,10 @@ GROWTH_PER_PIECE = 20.0
 #: Most piece propagators a coast of a time-varying model builds in one call: k environments
 #: build ``max(1, COAST_BATCH // k)`` pieces at a time (a few MB of generators).
 COAST_BATCH = 128
+#: Smallest batch whose step and envelope products a BLAS library could thread (OpenBLAS threads a
+#: product above ~2.6e5 multiply-adds; the envelope's is k × ~13 × ~600): below it the ~2 µs of
+#: :func:`~sail_env.physics.blas.one_blas_thread` would only slow a single environment's step.
+THREADED_BATCH = 8
 
 
 @dataclasses.dataclass
@@ -86,6 +92,11 @@ def _pad_rows(table: np.ndarray, width: int) -> np.ndarray:
     if table.shape[1] == width:
         return table
     return np.concatenate([table, np.repeat(table[:, -1:], width - table.shape[1], axis=1)], axis=1)
+
+
+def _batch_threads(k: int) -> contextlib.AbstractContextManager:
+    """One BLAS thread for a batch of ``k`` environments large enough to be threaded."""
+    return one_blas_thread() if k >= THREADED_BATCH else contextlib.nullcontext()
 
 
 class LinearPlant:
@@ -148,8 +159,11 @@ class LinearPlant:
             return np.ones(self.n_factors)
         return sample_uniform(rng, 1 - self.parameter_spread, 1 + self.parameter_spread, self.n_factors)
 
+    @single_threaded
     def params(self, factors: np.ndarray) -> PlantParams:
-        """Parameters for environments with the given factors (k, n_factors); shared without spread."""
+        """Parameters for environments with the given factors (k, n_factors); shared without spread.
+        Built with one BLAS thread (:mod:`sail_env.physics.blas`), as are :meth:`coast` and the batched
+        :meth:`step` and :meth:`peak_speed`."""
         return self._shared if self._shared is not None else self._build(factors, shared=False)
 
     def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
@@ -174,7 +188,8 @@ class LinearPlant:
         """One control step with ``u`` held; ``push`` (k,) is the relative push error ε of the step."""
         n = self.n_states
         z = np.concatenate([x, self.with_bias(u)], axis=-1)
-        y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
+        with _batch_threads(len(z)):
+            y = z @ p.step[0].T if p.shared else np.matmul(p.step, z[:, :, None])[:, :, 0]
         if push is None:
             return y[:, :n]
         eps = push[:, None]
@@ -193,7 +208,8 @@ class LinearPlant:
 
     def peak_speed(self, p: PlantParams, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Largest lateral speed [m/s] the sail would reach with ``u`` held (the envelope)."""
-        return peak_speed(p.envelope[0] if p.shared else p.envelope, x, self.with_bias(u), len(self.velocity_rows))
+        with _batch_threads(len(x)):
+            return peak_speed(p.envelope[0] if p.shared else p.envelope, x, self.with_bias(u), len(self.velocity_rows))
 
     def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray:
         """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
@@ -214,6 +230,7 @@ class LinearPlant:
         (k,): a float, or (k, 1)."""
         return self.beam_jitter_m
 
+    @single_threaded
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
               normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Propagate ``duration`` (k,) seconds from flight time ``start_s`` (k,) with ``u`` held and

@@ -447,13 +447,18 @@ class RigidPlant(LinearPlant):
         propagators = super()._piece_propagators(p, u, middles, piece)
         if self.scales is None or not self.scales.kinks:
             return propagators
-        for j in range(middles.shape[1]):
-            lo, hi = middles[:, j] - 0.5 * piece, middles[:, j] + 0.5 * piece
-            cuts = self._kink_times(p, lo, hi)
-            if cuts is None:
-                continue
+        k, count = middles.shape
+        # Every piece's ends in one read of the flights; only the pieces with a kink are split.
+        lo, hi = middles - 0.5 * piece[:, None], middles + 0.5 * piece[:, None]
+        ratio = np.repeat(p.acceleration / self.nominal_acceleration * np.ones(k), count)
+        cuts = self._kink_times(ratio, lo.ravel(), hi.ravel())
+        if cuts is None:
+            return propagators
+        split = np.any(np.stack(cuts) < hi.ravel(), axis=0).reshape(k, count)
+        for j in np.flatnonzero(split.any(axis=0)):
+            rows = np.arange(k) * count + j
             total = None
-            for start, end in zip([lo, *cuts], [*cuts, hi]):
+            for start, end in zip([lo[:, j], *(c[rows] for c in cuts)], [*(c[rows] for c in cuts), hi[:, j]]):
                 part = super()._piece_propagators(p, u, (0.5 * (start + end))[:, None], end - start)[0]
                 if total is None:
                     total = part
@@ -464,25 +469,28 @@ class RigidPlant(LinearPlant):
             propagators[j] = total
         return propagators
 
-    def _kink_times(self, p: PlantParams, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray] | None:
-        """Times (k,) in ``[lo, hi]`` at which each draw's spot reaches a scale where ``A`` jumps
-        (``hi`` where it does not in the piece), in order; ``None`` if no draw's does."""
+    def _kink_times(self, ratio: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray] | None:
+        """Times (k,) in ``[lo, hi]`` at which the spot of draws with ``ratio`` (k,) times the nominal
+        ``F/m`` reaches a scale where ``A`` jumps (``hi`` where it does not in the piece), in order;
+        ``None`` if no draw's does."""
         if self.scales is None or not self.scales.kinks:
             return None
-        ratio = p.acceleration / self.nominal_acceleration * np.ones(len(lo))
         length = self.config.diffraction_length_m
         cuts = []
+        near, far = self.flights.distance(ratio, lo), self.flights.distance(ratio, hi)
         for kink in self.scales.kinks:
             distance = length * math.exp(kink)
-            inside = (self.flights.distance(ratio, lo) < distance) & (distance < self.flights.distance(ratio, hi))
+            inside = (near < distance) & (distance < far)
             if not inside.any():
                 continue
-            below, above = lo.copy(), hi.copy()
+            below, above = lo[inside], hi[inside]
             for _ in range(BISECTIONS):
                 half = 0.5 * (below + above)
-                short = self.flights.distance(ratio, half) < distance
+                short = self.flights.distance(ratio[inside], half) < distance
                 below, above = np.where(short, half, below), np.where(short, above, half)
-            cuts.append(np.where(inside, above, hi))
+            cut = hi.copy()
+            cut[inside] = above
+            cuts.append(cut)
         return list(np.sort(cuts, axis=0)) if cuts else None
 
     def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
