@@ -317,7 +317,7 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
     attach(agent, envs)
     obs, _ = envs.reset(seed=seed)
     agent.reset()
-    start = envs.unwrapped.core.x.copy()
+    start = envs.unwrapped.state.x.copy()
     running = np.ones(episodes, dtype=bool)
     returns, scores = np.zeros(episodes), {}
     while running.any():

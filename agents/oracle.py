@@ -54,15 +54,16 @@ class EpisodeTruth:
 
 def episode_truth(env: gym.Env | gym.vector.VectorEnv) -> EpisodeTruth:
     """PRIVILEGED: the true state and each episode's drawn window model, read from the episode
-    core (``env.unwrapped.core``: ``x`` and ``params``). The one function to adapt when the core's
-    state structure changes; nothing else in :mod:`agents` reads the core."""
+    core (``env.unwrapped.core.state``, an :class:`~sail_env.core.state.EpisodeState`: ``x`` and
+    ``params``). The one function to adapt when the core's state structure changes; nothing else in
+    :mod:`agents` reads the core."""
     core = env.unwrapped.core
-    p, n_envs, m = core.params, core.num_envs, core.spec.plant.n_inputs
+    p, n_envs, m = core.state.params, core.num_envs, core.spec.plant.n_inputs
     a = np.broadcast_to(p.a, (n_envs, *p.a.shape[1:]))
     b = np.broadcast_to(p.b, (n_envs, *p.b.shape[1:]))
     constant = b[:, :, m] if b.shape[2] > m else np.zeros(a.shape[:2])
     acceleration = np.broadcast_to(p.acceleration, (n_envs,))
-    return EpisodeTruth(core.x.copy(), a.copy(), b[:, :, :m].copy(), constant.copy(), acceleration.copy())
+    return EpisodeTruth(core.state.x.copy(), a.copy(), b[:, :, :m].copy(), constant.copy(), acceleration.copy())
 
 
 class _OracleMixin:

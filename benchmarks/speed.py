@@ -54,6 +54,10 @@ SECTIONS = ("single", "vector", "episode", "ppo", "start")
 VECTOR_SIZES = (1, 64, 1024, 16384)
 #: The realistic 3D task whose episode cost the ``episode`` section measures.
 HARD_TASK = "LightSail3DRealistic-v1"
+#: The realistic 3D tasks' coast costs ~0.1 s of CPU per episode: a round of whole episodes at
+#: N = 1024 would take minutes, so their vector cells stop at this N ("–" beyond).
+SLOW_TASKS = {"LightSail3DRealistic-v0", HARD_TASK, "LightSailUncertain-v0"}
+SLOW_TASKS_MAX_ENVS = 64
 #: What one process's start runs: import, make, reset and one step (the first compiles what it needs).
 START_SCRIPT = ("import time; t = time.perf_counter(); import gymnasium as gym, numpy as np; import sail_env; "
                 "env = gym.make({env!r}); env.reset(seed=0); env.step(env.action_space.sample()); "
@@ -166,6 +170,9 @@ def vector_section(rounds: int, episodes: int, sizes: tuple[int, ...], tasks: tu
     for n in sizes:
         cells = []
         for env_id in tasks:
+            if env_id in SLOW_TASKS and n > SLOW_TASKS_MAX_ENVS:
+                cells.append("–")
+                continue
             steps = episodes * episode_steps(env_id)
             runs = interleaved({"CartPoleVectorEnv": vector_workload(CartPoleVectorEnv(num_envs=n), steps),
                                 env_id: vector_workload(gym.make_vec(env_id, num_envs=n,

@@ -85,8 +85,8 @@ def linear_window(quiet: LightSail3DEnv, starts: np.ndarray) -> np.ndarray:
         quiet.reset(seed=i)
         # The window starts from the task's state at control start (the quiet launch coast is discarded),
         # and the beam is cut at the window's end: the coast to cut-off (~1 s of compute) plays no part here.
-        quiet.unwrapped.core.x[0] = start
-        quiet.unwrapped.core.cutoff_s[0] = quiet.episode_spec.config.control_start_s + steps * quiet.dt
+        quiet.unwrapped.state.x[0] = start
+        quiet.unwrapped.state.cutoff_s[0] = quiet.episode_spec.config.control_start_s + steps * quiet.dt
         out[i, 0] = start[2:4]
         for k in range(steps):
             _, _, terminated, _, info = quiet.step(zero)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sail_env.core.jit import compiled
 from sail_env.physics.mission import one_way_light_delay_s
 
 
@@ -13,8 +14,18 @@ def delay_steps(acceleration_m_s2: np.ndarray | float, control_start_s: float, d
 
     The observation at step ``s`` shows the state of step ``s − delay(s)``; the command
     sent at step ``j`` acts during every step ``s`` with ``s − delay(s) = j`` (the newest
-    command that has arrived is held). Ranging tells a ground station its distance, so a
-    controller may use this rule. Arguments broadcast; the result is an integer array.
+    command that has arrived is held: :func:`arrived_command`). Ranging tells a ground station
+    its distance, so a controller may use this rule. Arguments broadcast; the result is an
+    integer array.
     """
     t = control_start_s + np.asarray(steps) * dt
     return np.rint(one_way_light_delay_s(np.asarray(acceleration_m_s2), t) / dt).astype(np.int64)
+
+
+@compiled
+def arrived_command(step: int, delay: int, newest: int) -> int:
+    """The index of the command acting during ``step`` (whose one-way delay is ``delay`` steps):
+    the newest that has arrived, at most ``newest`` (the last one sent); -1 before any arrives
+    (the beam input is then zero). The compiled step and the LQG's predictor both ask this."""
+    sent = min(step - delay, newest)
+    return sent if sent >= 0 else -1

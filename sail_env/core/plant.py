@@ -21,10 +21,10 @@ parameter draws. SI units throughout.
 | ``rate_scale()`` | the nominal model's fastest rate [1/s]: the time scale of the observation |
 | ``start_limits()`` | the largest start (n,) inside the beam for every draw |
 | ``acceleration_m_s2``, ``max_acceleration_m_s2`` | the nominal and the largest axial acceleration (light delay, light-speed check) |
-| ``n_factors``, ``draw(rng)``, ``params(factors)`` | the per-episode parameter draw and the arrays it gives |
-| ``step(p, x, u, push)`` | one control step with ``u`` held and a relative push error per environment |
-| ``diverged(p, x)`` | whether each sail has left the beam or the small-angle regime |
-| ``peak_speed(p, x, u)`` | the largest lateral speed with ``u`` held (the reward's envelope) |
+| ``n_factors``, ``n_draws``, ``draw(rng)``, ``factors(uniforms)``, ``params(factors)`` | the per-episode parameter draw (``n_draws`` uniform numbers of a generator, made factors in a batch) and the arrays it gives |
+| ``step(p, x, u, push)`` | one control step with ``u`` held and a relative push error per environment (``p.step``'s rows: the compiled step's matrix) |
+| ``divergence_groups``, ``diverged(p, x)`` | the divergence rule as data (groups of at most two state rows whose norm must stay within the matching column of ``p.limits``; the compiled step applies it) and the same test in NumPy |
+| ``velocity_rows``, ``with_bias(u)``, ``peak_speed(p, x, u)`` | the lateral velocity rows of ``p.envelope``, the inputs with the constant term's 1, the largest lateral speed with ``u`` held (the reward's envelope) |
 | ``speed(p, t)``, ``pointing(p, x, t)`` | the axial speed and the flight direction ``|V⊥|/Vz`` if the beam is cut at ``t`` |
 | ``noisy``, ``jittered``, ``jitter_inputs``, ``jitter_std(p, t)`` | whether noise acts over the coast; the beam jitter's inputs and size in the window |
 | ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (dust): the rows they kick, their rate and size |
@@ -54,6 +54,8 @@ class Plant(Protocol):
     fixed_state: Mapping[str, float]
     jitter_inputs: tuple[int, ...]
     impulse_rows: tuple[int, ...]
+    velocity_rows: tuple[int, ...]
+    divergence_groups: tuple[tuple[int, ...], ...]
     nominal: LinearModel
     noisy: bool
 
@@ -65,6 +67,9 @@ class Plant(Protocol):
 
     @property
     def n_factors(self) -> int: ...
+
+    @property
+    def n_draws(self) -> int: ...
 
     @property
     def constant_term(self) -> np.ndarray: ...
@@ -84,7 +89,11 @@ class Plant(Protocol):
 
     def draw(self, rng: np.random.Generator) -> np.ndarray: ...
 
+    def factors(self, uniforms: np.ndarray) -> np.ndarray: ...
+
     def params(self, factors: np.ndarray) -> PlantParams: ...
+
+    def with_bias(self, u: np.ndarray) -> np.ndarray: ...
 
     def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray: ...
 

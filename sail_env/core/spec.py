@@ -30,6 +30,10 @@ TIME_TOLERANCE_S = 1e-9
 #: reverse the push (the per-step expansion in the push error, docs/physics.md §4, also loses
 #: its accuracy there).
 MAX_PUSH_NOISE = 0.25
+#: The settings that set the fastest flight, per kind of configuration (named when it would pass light speed).
+LIGHT_SPEED_SETTINGS = {SailConfig: "push_force_n and beam_cutoff_s",
+                        RigidFlight: "parameter_spread and cutoff_jitter_s",
+                        UncertainFlight: "parameter_spread, model_uncertainty.power and cutoff_jitter_s"}
 #: Largest ``parameter_spread`` (exclusive): a factor ``1 − s`` must leave every length and mass positive.
 MAX_PARAMETER_SPREAD = 0.5
 
@@ -154,14 +158,13 @@ class EpisodeSpec:
         self.action_scale = np.array([physical[unit] for unit in self.plant.input_units])
         self.start_half_widths = np.array(widths)
         self.sensor_noise_std = np.array(disturbances.sensor_noise_std) if disturbances.any_sensor_noise else np.zeros(n)
-        rate = self.plant.rate_scale()
+        # A sail with no stiffness at all (neutral, in a spot wider than it) has no rate of its own: the
+        # window's inverse then, so that no observation divides by zero.
+        rate = self.plant.rate_scale() or 1.0 / (self.n_steps * self.dt)
         scales = {"m": POSITION_SCALE_M, "m/s": POSITION_SCALE_M * rate, "rad": TILT_SCALE_RAD,
                   "rad/s": TILT_SCALE_RAD * rate}
         self.state_scale = np.array([scales[unit] for unit in self.plant.state_units])
         fastest = self.plant.max_acceleration_m_s2
-        check_below_light_speed(fastest, config.beam_cutoff_s + disturbances.cutoff_jitter_s,
-                                "push_force_n and beam_cutoff_s (fastest draw of parameter_spread, latest of "
-                                "cutoff_jitter_s)")
         if disturbances.light_delay:
             self._check_round_trip(fastest)
             self.history_length = 2 * (int(self.delay_steps(self.n_steps)) + 1)
@@ -170,6 +173,10 @@ class EpisodeSpec:
         else:
             self.history_length = self.max_delay = 0
         self._check_cutoff()
+        settings = LIGHT_SPEED_SETTINGS[type(config)]
+        check_below_light_speed(fastest, config.beam_cutoff_s + disturbances.cutoff_jitter_s,
+                                f"{settings} (fastest draw of parameter_spread, latest of cutoff_jitter_s)",
+                                settings.replace(" and ", " or "))
         self.start_limits = self.plant.start_limits()
         self.check_start(self.start_half_widths, "start_half_widths")
 
@@ -186,14 +193,21 @@ class EpisodeSpec:
                 f"(control_start_s) or lengthen control_window_s")
 
     def check_start(self, states: np.ndarray, name: str) -> None:
-        """Refuse start states (..., n) beyond :attr:`start_limits`, naming ``name`` and the limit."""
+        """Refuse start states (..., n) beyond :attr:`start_limits`, naming ``name`` and the limit. The
+        components of a plant's ``radial_pairs`` (the 3D sail's x and y axes) are limited in their
+        length ``√(x² + y²)``, as divergence is; a box of half-widths is checked at its corner."""
         n = self.plant.n_states
-        size = np.abs(np.asarray(states)).reshape(-1, n)
+        size = np.abs(np.asarray(states, dtype=np.float64)).reshape(-1, n)
+        labels = list(self.plant.state_names)
+        for i, j in getattr(self.plant, "radial_pairs", ()):
+            size[:, i] = size[:, j] = np.hypot(size[:, i], size[:, j])
+            labels[i] = labels[j] = f"√({labels[i]}² + {labels[j]}²)"
         beyond = size > self.start_limits
         if beyond.any():
             k = int(np.flatnonzero(beyond.any(axis=0))[0])
+            label = labels[k] if labels[k].startswith("√") else f"|{labels[k]}|"
             raise ValueError(
-                f"{name}: |{self.plant.state_names[k]}| must be <= {self.start_limits[k]:.4g} (inside the beam and "
+                f"{name}: {label} must be <= {self.start_limits[k]:.4g} (inside the beam and "
                 f"the small-angle regime, and not leaving them within one step), got {size[:, k].max():.4g}")
 
     def _check_cutoff(self) -> None:
@@ -201,11 +215,17 @@ class EpisodeSpec:
         :data:`TIME_TOLERANCE_S`, so that a window ending exactly at the cut-off is accepted)."""
         c, jitter = self.config, self.disturbances.cutoff_jitter_s
         last_arrival = c.control_start_s + (self.n_steps + self.max_delay) * self.dt
-        if c.beam_cutoff_s - jitter < last_arrival - TIME_TOLERANCE_S:
+        largest = c.beam_cutoff_s - last_arrival
+        if largest < -TIME_TOLERANCE_S:
             raise ValueError(
                 f"beam_cutoff_s - cutoff_jitter_s = {c.beam_cutoff_s - jitter:.6g} s must be >= the end of "
                 f"control with the commands in flight, control_start_s + (steps + delay) * dt = "
                 f"{last_arrival:.6g} s")
+        if jitter > largest + TIME_TOLERANCE_S:
+            raise ValueError(
+                f"cutoff_jitter_s must be in [0, {max(largest, 0.0):.6g}] s: the earliest cut-off must come after the "
+                f"last command has reached the sail ({last_arrival:.6g} s into the flight; the cut-off is at "
+                f"{c.beam_cutoff_s:.6g} s), got {jitter}")
 
     @classmethod
     def from_env_kwargs(cls, config: SailConfig | RigidFlight | str, max_beam_offset_m: float, max_beam_tilt_rad: float,

@@ -11,9 +11,10 @@ from gymnasium import spaces
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
+from sail_env.core.state import EpisodeState
+from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.envs.rendering import SailRenderer
-from sail_env.physics.config import SailConfig, real_number
-from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
+from sail_env.physics.config import SailConfig
 
 _ONE = np.zeros(1, dtype=np.int64)
 
@@ -163,48 +164,58 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (spec.observation_size,),
                                             np.float32)
         self.core = EpisodeCore(spec, 1)
+        # What the step's hot path reads (an attribute lookup each, not a chain).
+        self._action_shape = self.action_space.shape
+        self._state_names = spec.plant.state_names
+        self._batch_action = (1, spec.plant.n_inputs)
+        self._batch_observation = (1, spec.observation_size)
+        self._start_s, self._dt = spec.config.control_start_s, spec.dt
         self._renderer: SailRenderer | None = None
         self._trajectory: list[tuple[float, np.ndarray, np.ndarray]] = []
 
+    @property
+    def state(self) -> EpisodeState:
+        """The episode's arrays (:class:`~sail_env.core.state.EpisodeState`): all the env reads of the core."""
+        return self.core.state
+
     def reset(self, *, seed: int | None = None,
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=seed)
-        initial = (options or {}).get("initial_state")
-        if initial is not None:
-            initial = initial_state(initial, self.episode_spec)[None]
-            self.episode_spec.check_start(initial, "initial_state")
-        self.core.reset(_ONE, [self.np_random], initial)
+        super().reset(seed=reset_seeds(seed, 1)[0])
+        self.core.reset(_ONE, [self.np_random], reset_states(options, self.episode_spec, 1, arrays=False))
         if self.render_mode is not None:
-            self._trajectory = [(self._time(), self.core.x[0].copy(), np.zeros(2))]
+            self._trajectory = [(self._time(), self.state.x[0].copy(), np.zeros(2))]
         return self.core.observe()[0], self._info()
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        action, size = np.asarray(action), self.action_space.shape[0]
-        if action.shape != (size,) or action.dtype.kind not in "fiu":
+        # The kernel refuses a non-finite action (ValueError) and a finished episode (RuntimeError)
+        # before it changes anything.
+        action = np.asarray(action)
+        if action.shape != self._action_shape or action.dtype.kind not in "fiu":
+            size = self._action_shape[0]
             raise ValueError(f"action must be {size} real numbers (shape ({size},)), got {action!r}")
-        if not np.isfinite(action).all():
-            raise ValueError(f"action must be finite, got {action}")
-        if self.core.finished[0]:
-            raise RuntimeError("step() called on a finished episode; call reset() first")
-        result = self.core.step(action[None])
-        info = self._info()
-        terminated = bool(result.terminated[0])
-        if self.render_mode is not None:
-            self._trajectory.append((info["t"], self.core.x[0].copy(), result.applied[0]))
-        if result.diverged[0]:
-            info.update(terminal_pointing_rad=np.inf, terminal_envelope_rad=np.inf, is_success=False,
-                        diverged=True, cutoff_s=float(self.core.cutoff_s[0]))
+        core, obs = self.core, np.empty(self._batch_observation, dtype=np.float32)
+        try:
+            ended = core.advance(action.reshape(self._batch_action), obs)
+        except ValueError:
+            raise ValueError(f"action must be finite, got {action}") from None
+        state = core.state
+        info = {"state": dict(zip(self._state_names, state.x[0].tolist())),
+                "t": self._start_s + state.step.item(0) * self._dt}
+        if ended:
+            result = core.score()
+            info.update(terminal_pointing_rad=float(result.terminal_pointing_rad[0]),
+                        terminal_envelope_rad=float(result.terminal_envelope_rad[0]),
+                        is_success=bool(result.success[0]), diverged=bool(state.diverged[0]),
+                        cutoff_s=float(state.cutoff_s[0]))
+            if not state.diverged[0]:
+                info.update(envelope_rad=float(state.envelope[0]), terminal_state=self._named(result.terminal_state[0]))
         else:
-            info["envelope_rad"] = float(result.envelope_rad[0])
-            if terminated:
-                pointing = float(result.terminal_pointing_rad[0])
-                info.update(terminal_pointing_rad=pointing,
-                            terminal_envelope_rad=float(result.terminal_envelope_rad[0]),
-                            is_success=pointing <= POINTING_TOLERANCE_RAD, diverged=False,
-                            cutoff_s=float(self.core.cutoff_s[0]), terminal_state=self._named(result.terminal_state[0]))
-        if self.render_mode == "human":
-            self.render()
-        return result.observation[0], float(result.reward[0]), terminated, False, info
+            info["envelope_rad"] = state.envelope.item(0)
+        if self.render_mode is not None:
+            self._trajectory.append((info["t"], state.x[0].copy(), state.applied[0].copy()))
+            if self.render_mode == "human":
+                self.render()
+        return obs[0], state.reward.item(0), ended > 0, False, info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -213,7 +224,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         if self._renderer is None:
             self._renderer = SailRenderer(self.render_mode, self.metadata["render_fps"])
         spec = self.episode_spec
-        return self._renderer.draw(spec.config, self._trajectory, float(self.core.cutoff_s[0]), spec.action_scale)
+        return self._renderer.draw(spec.config, self._trajectory, float(self.state.cutoff_s[0]), spec.action_scale)
 
     def close(self) -> None:
         if self._renderer is not None:
@@ -227,31 +238,10 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _time(self) -> float:
         spec = self.episode_spec
-        return spec.config.control_start_s + int(self.core.step_index[0]) * spec.dt
+        return spec.config.control_start_s + int(self.state.step[0]) * spec.dt  # as the step's info["t"]
 
     def _info(self) -> dict[str, Any]:
-        return {"state": self._named(self.core.x[0]), "t": self._time()}
+        return {"state": self._named(self.state.x[0]), "t": self._time()}
 
     def _named(self, state: np.ndarray) -> dict[str, float]:
-        return dict(zip(self.episode_spec.plant.state_names, state.tolist()))
-
-
-def initial_state(given: Mapping[str, float], spec: EpisodeSpec) -> np.ndarray:
-    """The launch state from ``options["initial_state"]``: a dict of real numbers (missing keys are zero).
-
-    Keys are the plant's state names, and any of its ``fixed_state`` (quantities the task
-    fixes, such as the 3D sail's spin), which must then have the task's value.
-    """
-    names, fixed = spec.plant.state_names, spec.plant.fixed_state
-    if not isinstance(given, Mapping):
-        raise ValueError(f"initial_state must be a dict with keys among {(*names, *fixed)}, got {given!r}")
-    unknown = set(given) - set(names) - set(fixed)
-    if unknown:
-        raise ValueError(f"initial_state keys must be among {(*names, *fixed)}, got {sorted(unknown)}")
-    for key, value in fixed.items():
-        if key in given and real_number(given[key], f"initial_state[{key!r}]") != value:
-            raise ValueError(f"initial_state[{key!r}] is fixed by the task at {value}, got {given[key]}")
-    state = np.array([real_number(given.get(name, 0.0), f"initial_state[{name!r}]") for name in names])
-    if not np.all(np.isfinite(state)):
-        raise ValueError(f"initial_state must be finite, got {dict(given)}")
-    return state
+        return dict(zip(self._state_names, state.tolist()))

@@ -6,18 +6,33 @@ import functools
 import math
 from typing import Any
 
+import numpy as np
+
 from sail_env.core.spec import Disturbances, EpisodeSpec
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
-from sail_env.physics.config import SEED
+from sail_env.physics.config import SEED, real_number
 from sail_env.physics.plant3d import RigidFlight
-from sail_env.physics.rigid3d.config import SHAPES, RigidSailConfig
+from sail_env.physics.rigid3d.config import BEAM_PROFILES, SHAPES, RigidSailConfig
+from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
 from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainFlight
 
 #: ``(x, y, vx, vy, θx, θy, ωx, ωy)``: LightSail-v0's start box on each axis.
 START_HALF_WIDTHS_3D = (5e-3, 5e-3, 0.1, 0.1, 2e-3, 2e-3, 1e-5, 1e-5)
 #: Relative beam power at action ±1 of the power input with ``power_control=True``.
 DEFAULT_POWER_CONTROL = 0.1
+
+
+def power_input(power_control: object) -> float:
+    """``power_control`` as the relative power at action ±1: ``False`` or ``0`` is no power input,
+    ``True`` :data:`DEFAULT_POWER_CONTROL`, a number in ``[0, MAX_POWER_CONTROL]`` that power."""
+    if isinstance(power_control, (bool, np.bool_)):
+        return DEFAULT_POWER_CONTROL if power_control else 0.0
+    value = real_number(power_control, "power_control")
+    if not 0 <= value <= MAX_POWER_CONTROL:
+        raise ValueError(f"power_control must be a bool or a relative power in [0, {MAX_POWER_CONTROL}] (0 or False: "
+                         f"no power input; True: {DEFAULT_POWER_CONTROL}), got {power_control!r}")
+    return value
 
 
 def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
@@ -34,15 +49,12 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  model_uncertainty: ModelUncertainty | dict[str, float] | None = None) -> EpisodeSpec:
     """The :class:`EpisodeSpec` of the 3D keywords (see :class:`LightSail3DEnv`); a bad value is a
     ``ValueError`` naming its keyword."""
-    if sail_shape not in SHAPES:
-        raise ValueError(f"sail_shape must be one of {SHAPES}, got {sail_shape!r}")
-    if not isinstance(relativistic, bool):
-        raise ValueError(f"relativistic must be a bool, got {relativistic!r}")
-    if isinstance(power_control, bool):
-        power_control = DEFAULT_POWER_CONTROL if power_control else 0.0
-    elif not (isinstance(power_control, (int, float)) and 0 < power_control <= 0.5):
-        raise ValueError(f"power_control must be a bool or a relative power in (0, 0.5], got {power_control!r}")
-    if not (isinstance(absorptivity, (int, float)) and 0 <= absorptivity <= 1):
+    for name, value, choices in (("sail_shape", sail_shape, SHAPES), ("beam_profile", beam_profile, BEAM_PROFILES)):
+        if not (isinstance(value, str) and value in choices):
+            raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    power_control = power_input(power_control)
+    absorptivity = real_number(absorptivity, "absorptivity")
+    if not 0 <= absorptivity <= 1:
         raise ValueError(f"absorptivity must be in [0, 1], got {absorptivity!r}")
     sail = RigidSailConfig(shape=sail_shape, beam_profile=beam_profile, curvature_radius_m=curvature_radius_m,
                            com_distance_m=com_distance_m, absorptivity=absorptivity,
@@ -55,7 +67,7 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
     # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainFlight.
     make_flight = RigidFlight if model_uncertainty is None else functools.partial(UncertainFlight,
                                                                                   uncertainty=model_uncertainty)
-    flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=float(power_control),
+    flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=power_control,
                          relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
                          diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
                          dust_density_m3=dust_density_m3, dust_grain_mass_kg=dust_grain_mass_kg,
@@ -131,6 +143,9 @@ class LightSail3DEnv(LightSailEnv):
     ``reset(options={"initial_state": {...}})`` with keys ``x, y, vx, vy, theta_x, theta_y,
     omega_x, omega_y`` in SI sets it instead (missing keys are zero); the key ``spin`` may
     be given too but must equal the task's ``spin_rad_s`` (the spin is part of the linear model).
+    Starts are limited radially, as divergence is: ``√(x² + y²) ≤ a``, ``√(θx² + θy²)`` ≤ the tilt
+    limit, and the speeds and rates so that no start leaves them within one step (a box of
+    ``start_half_widths`` at its corner). ``options`` takes no other key.
 
     ## Episode End
 
@@ -142,28 +157,32 @@ class LightSail3DEnv(LightSailEnv):
 
     ## Arguments
 
-    | Parameter | Default | Description |
-    |-----------|---------|-------------|
-    | ``sail_shape`` | ``"dish"`` | ``dish``, ``balloon``, ``flat``, ``cone`` |
-    | ``beam_profile`` | ``"flat-top"`` | ``flat-top``, ``gaussian``, ``multi-gaussian``, ``annulus`` |
-    | ``beam_radius_m`` | None | flat-top / annulus radius, Gaussian waist or ring radius (None: the aperture) |
-    | ``curvature_radius_m`` | 10 | ``R`` of the dish, balloon and cone |
-    | ``com_distance_m`` | 10 | ``Lc``, vertex to CoM |
-    | ``absorptivity`` | 0 | absorbed fraction; the rest is reflected |
-    | ``spin_rad_s`` | 0 | spin about the sail axis (couples the tilt axes) |
-    | ``power_control`` | False | True (±10 %) or a relative power: a fifth action |
-    | ``relativistic`` | False | relativistic push with the Doppler factor (see below) |
-    | ``ground_jitter_rad`` | 0 | σ of the ground pointing angle per step: the spot moves by ``D(t)·δ`` on both axes |
-    | ``diffraction_length_m`` | inf | ``L0``: beyond it the spot widens as ``D/L0`` and its intensity falls as ``(L0/D)²`` (see below) |
-    | ``payload_offset_m`` | 0 | payload's distance from the sail axis (along x): a constant torque ``F e m_craft/m`` (≤ ``a``) |
-    | ``dust_density_m3``, ``dust_grain_mass_kg`` | 0, 0 | dust grains swept up at the sail's speed: random kicks of the tilt rates and lateral speeds (both > 0 to switch on) |
-    | ``velocity_terms`` | False | the radiation forces' v/c terms (Doppler, aberration): a weak passive damping |
-    | ``control_start_s`` | 0 | flight time at which control starts |
-    | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 |
-    | ``start_half_widths`` | see above | 8 half-widths in state order |
-    | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` |
-    | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power |
-    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v0``, see below) |
+    | Parameter | Default | Description | Valid range (why) |
+    |-----------|---------|-------------|-------------------|
+    | ``sail_shape`` | ``"dish"`` | ``dish``, ``balloon``, ``flat``, ``cone`` | one of these strings |
+    | ``beam_profile`` | ``"flat-top"`` | ``flat-top``, ``gaussian``, ``multi-gaussian``, ``annulus`` | one of these strings |
+    | ``beam_radius_m`` | None | flat-top / annulus radius, Gaussian waist or ring radius (None: the aperture) | from the wavelength 1.06 µm (annulus: its inner edge; a Gaussian waist: 1.6 radial node spacings of the quadrature, ``a/10``) to where the sail catches 1 % of the power (flat-top ``10 a``, Gaussian ``14.1 a``, annulus ``1.97 a``, ring of lobes ``1.56 a``) |
+    | ``curvature_radius_m`` | 10 | ``R`` of the dish, balloon and cone | ``(a, 10⁴ a]``: flatter is the flat sail within the quadrature's accuracy (1e-4) |
+    | ``com_distance_m`` | 10 | ``Lc``, vertex to CoM | ``(0, 20]``: between the sail and the payload (20 m behind the vertex) |
+    | ``absorptivity`` | 0 | absorbed fraction; the rest is reflected | ``[0, 1]`` |
+    | ``spin_rad_s`` | 0 | spin about the sail axis (couples the tilt axes) | ``|Ω| ≤ π / dt``: half a turn per control step (628 rad/s at 5 ms, about the films' breakup) |
+    | ``power_control`` | False | ``True`` (±10 %), ``False`` or ``0`` (no power input), or a relative power: a fifth action | ``[0, 0.5]``: the push stays above half |
+    | ``relativistic`` | False | relativistic push with the Doppler factor (see below) | a bool |
+    | ``ground_jitter_rad`` | 0 | σ of the ground pointing angle per step: the spot moves by ``D(t)·δ`` on both axes | ``D·δ ≤ a`` at the farthest cut-off |
+    | ``diffraction_length_m`` | inf | ``L0``: beyond it the spot widens as ``D/L0`` and its intensity falls as ``(L0/D)²`` (see below) | the widened spot still puts 1 % of the beam on the sail at the window's end |
+    | ``payload_offset_m`` | 0 | payload's distance from the sail axis (along x): a constant torque ``F e m_craft/m`` | ``[0, a]`` |
+    | ``dust_density_m3``, ``dust_grain_mass_kg`` | 0, 0 | dust grains swept up at the sail's speed: random kicks of the tilt rates and lateral speeds (both > 0 to switch on) | grains of a hydrogen atom's mass or more; the swept dust's drag under 1 % of the push; no grain throwing the sail out of the beam in a step |
+    | ``velocity_terms`` | False | the radiation forces' v/c terms (Doppler, aberration): a weak passive damping | a bool |
+    | ``control_start_s`` | 0 | flight time at which control starts | ``≥ 0``, the window ending before the cut-off |
+    | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 | finite, ``> 0`` |
+    | ``start_half_widths`` | see above | 8 half-widths in state order | the box's corner inside the start limits (``√(x² + y²) ≤ a`` and so on) |
+    | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
+    | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power | ``[0, 0.5)`` |
+    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v0``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``≥ 0`` |
+
+    Numbers may be ints, floats or NumPy real scalars; bools (except for the bool keywords and
+    ``power_control``), strings and arrays are refused, each with one ``ValueError`` naming the keyword
+    and its range (``sail_env.physics.rigid3d.limits`` says why each limit is where it is).
 
     ``info["state"]`` holds the true state in SI by name and ``info["t"]`` the flight
     time; the control step is ``env.unwrapped.dt``. With ``relativistic=True`` the axial flight

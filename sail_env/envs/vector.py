@@ -30,9 +30,9 @@ from gymnasium.vector.utils import batch_space
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
-from sail_env.envs.planar import initial_state
+from sail_env.core.state import EpisodeState
+from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.physics.config import SailConfig
-from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 
 class LightSailVectorEnv(VectorEnv):
@@ -86,6 +86,11 @@ class LightSailVectorEnv(VectorEnv):
         self._all = np.arange(self.num_envs)
         self._truncated = np.zeros(self.num_envs, dtype=bool)
 
+    @property
+    def state(self) -> EpisodeState:
+        """The episodes' arrays (:class:`~sail_env.core.state.EpisodeState`): all the env reads of the core."""
+        return self.core.state
+
     def reset(self, *, seed: int | Sequence[int | None] | None = None,
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset every environment; ``seed`` an int seeds environment ``i`` with ``seed + i``.
@@ -93,50 +98,37 @@ class LightSailVectorEnv(VectorEnv):
         ``options={"initial_state": {...}}`` starts every environment from that state
         (``LightSailEnv``'s keys), ``{"initial_state": array (N, n)}`` each from its row.
         """
-        if seed is None:
-            seeds: Sequence[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed must be an int or {self.num_envs} seeds, got {len(seeds)}")
+        seeds = reset_seeds(seed, self.num_envs)
         super().reset(seed=seeds[0])
         if self._rngs is None or seed is not None:
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        given, n = (options or {}).get("initial_state"), self.episode_spec.plant.n_states
-        if isinstance(given, Mapping):
-            given = np.tile(initial_state(given, self.episode_spec), (self.num_envs, 1))
-        elif given is not None:
-            given = np.asarray(given)
-            if given.shape != (self.num_envs, n) or given.dtype.kind not in "fiu" or not np.all(np.isfinite(given)):
-                raise ValueError(f"initial_state must be a dict or a finite real array of shape ({self.num_envs}, {n}), "
-                                 f"got {given.dtype} {given.shape}")
-            given = given.astype(np.float64)
-        if given is not None:
-            self.episode_spec.check_start(given, "initial_state")
+        given = reset_states(options, self.episode_spec, self.num_envs, arrays=True)
         self.core.reset(self._all, self._rngs, given)
-        return self.core.observe(), {}
+        return self.core.observe(), {"state": self.state.x.copy(), "t": self._times()}
+
+    def _times(self) -> np.ndarray:
+        """Each environment's flight time [s] (the single env's ``info["t"]``)."""
+        spec = self.episode_spec
+        return spec.config.control_start_s + self.state.step * spec.dt
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        # The kernel refuses non-finite actions (ValueError) before it changes anything.
         actions = np.asarray(actions)
         if actions.shape != self.action_space.shape or actions.dtype.kind not in "fiu":
             raise ValueError(f"actions must be real numbers of shape {self.action_space.shape}, got {actions.shape}")
-        if not np.isfinite(actions).all():
-            raise ValueError("actions must be finite")
         if self._rngs is None:
             raise RuntimeError("step() called before reset()")
         result = self.core.step(actions)
-        obs, terminated = result.observation, result.terminated
+        obs, terminated = result.observation, result.terminated.astype(bool)
+        reward = result.reward.copy()
         info: dict[str, Any] = {}
         if terminated.any():
             done = np.flatnonzero(terminated)
             final_obs = np.full(self.num_envs, None, dtype=object)
             final_obs[done] = list(obs[done])
             scores = {"terminal_pointing_rad": result.terminal_pointing_rad,
-                      "terminal_envelope_rad": result.terminal_envelope_rad,
-                      "is_success": result.terminal_pointing_rad <= POINTING_TOLERANCE_RAD,
-                      "diverged": result.diverged, "cutoff_s": self.core.cutoff_s.copy()}
+                      "terminal_envelope_rad": result.terminal_envelope_rad, "is_success": result.success,
+                      "diverged": result.diverged.astype(bool), "cutoff_s": self.state.cutoff_s.copy()}
             final_info: dict[str, Any] = {}
             for key, value in scores.items():
                 final_info[key], final_info[f"_{key}"] = value, terminated
@@ -144,4 +136,4 @@ class LightSailVectorEnv(VectorEnv):
                     "_final_info": terminated}
             self.core.reset(done, [self._rngs[i] for i in done])
             obs[done] = self.core.observe(done)
-        return obs, result.reward, terminated, self._truncated.copy(), info
+        return obs, reward, terminated, self._truncated.copy(), info

@@ -13,6 +13,8 @@ import dataclasses
 import math
 import numbers
 
+import numpy as np
+
 from sail_env.physics.constants import SPEED_OF_LIGHT
 
 #: Most control steps in a window. The episode core draws every normal an episode's window
@@ -29,15 +31,23 @@ def real_number(value: object, name: str) -> float:
     return float(value)
 
 
-def check_below_light_speed(acceleration_m_s2: float, t: float, what: str) -> None:
+def boolean(value: object, name: str) -> bool:
+    """``value`` as a bool if it is ``True``, ``False`` or a NumPy bool; anything else (``0``, ``1``,
+    strings) raises ``ValueError`` naming ``name``."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a bool (True or False), got {value!r}")
+    return bool(value)
+
+
+def check_below_light_speed(acceleration_m_s2: float, t: float, what: str,
+                            remedy: str = "push_force_n or beam_cutoff_s") -> None:
     """The planar model is Newtonian (``Vz = a t``): refuse a push that would pass the speed of light
-    by ``t`` (naming ``what`` sets the limit)."""
+    by ``t`` (naming ``what`` sets the limit and the settings to lower, ``remedy``)."""
     speed = acceleration_m_s2 * t
     if not speed < SPEED_OF_LIGHT:
         raise ValueError(
             f"{what}: the Newtonian axial speed a t = {acceleration_m_s2:.4g} m/s² x {t:.4g} s = {speed:.4g} m/s "
-            f"at cut-off must stay below the speed of light ({SPEED_OF_LIGHT:.6g} m/s); lower push_force_n or "
-            f"beam_cutoff_s")
+            f"at cut-off must stay below the speed of light ({SPEED_OF_LIGHT:.6g} m/s); lower {remedy}")
 
 
 @dataclasses.dataclass(frozen=True)

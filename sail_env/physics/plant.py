@@ -24,7 +24,7 @@ import numpy as np
 
 from sail_env.physics.blas import one_blas_thread, single_threaded
 from sail_env.physics.config import SailConfig, moment_of_inertia
-from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, sample_uniform, zoh_discretize
+from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, zoh_discretize
 from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_growth_rate,
                                     moment_propagator, second_moment)
 from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
@@ -33,8 +33,6 @@ from sail_env.physics.pointing import envelope_table, peak_speed
 
 #: The sail has left the small-angle regime the model is valid in.
 MAX_TILT_RAD = 0.05
-#: The states :meth:`PlanarPlant.diverged` bounds (an array: a list index is converted at every step).
-LIMITED_STATES = np.array([X, THETA])
 #: The parameters a spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("sail_mass_kg", "craft_mass_kg", "strut_length_m", "com_distance_m", "curvature_radius_m")
 #: Largest growth ``e^GROWTH_PER_PIECE`` of one piece of a long propagation: from inside the
@@ -122,6 +120,10 @@ class LinearPlant:
     impulse_rows: tuple[int, ...] = ()
     #: Quantities a start may name but not change (the 3D sail's spin); none by default.
     fixed_state: Mapping[str, float] = MappingProxyType({})
+    #: The divergence rule as data: the sail has left the beam or the small-angle regime when the
+    #: Euclidean norm of a group's state rows (at most two) exceeds that group's column of
+    #: ``PlantParams.limits`` (or is NaN). The compiled step and :meth:`diverged` both read it.
+    divergence_groups: tuple[tuple[int, ...], ...]
 
     def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, beam_jitter_m: float,
                  push_noise: float) -> None:
@@ -155,9 +157,15 @@ class LinearPlant:
     # ------------------------------------------------------------------ parameters
     def draw(self, rng: np.random.Generator) -> np.ndarray:
         """Per-episode factors of :attr:`spread_fields` (all one without spread; draws nothing then)."""
+        return self.factors(rng.random((1, self.n_draws)))[0]
+
+    def factors(self, uniforms: np.ndarray) -> np.ndarray:
+        """The factors (k, n_factors) of uniform numbers in [0, 1) (k, :attr:`n_draws`): what
+        :meth:`draw` makes of its generator's numbers, for a batch drawn one call per environment."""
         if not self.parameter_spread:
-            return np.ones(self.n_factors)
-        return sample_uniform(rng, 1 - self.parameter_spread, 1 + self.parameter_spread, self.n_factors)
+            return np.ones((len(uniforms), self.n_factors))
+        low, high = 1 - self.parameter_spread, 1 + self.parameter_spread
+        return low + (high - low) * uniforms
 
     @single_threaded
     def params(self, factors: np.ndarray) -> PlantParams:
@@ -199,7 +207,13 @@ class LinearPlant:
         return out
 
     def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
+        """Whether each sail has left the beam or the small-angle regime by :attr:`divergence_groups`
+        (NaN counts as left)."""
+        inside = np.ones(len(x), dtype=bool)
+        for column, rows in enumerate(self.divergence_groups):
+            size = np.abs(x[:, rows[0]]) if len(rows) == 1 else np.hypot(x[:, rows[0]], x[:, rows[1]])
+            inside &= size <= p.limits[:, column]
+        return ~inside
 
     def start_limits(self) -> np.ndarray:
         """Largest size of each state component (n,) a start may have: inside the beam and the
@@ -321,6 +335,8 @@ class PlanarPlant(LinearPlant):
     spread_fields = SPREAD_FIELDS
     jitter_inputs = (0,)
     velocity_rows = (VX,)
+    #: The sail has left the beam (``|X|`` beyond the aperture) or ``|θ|`` beyond ``min(a/Lc, MAX_TILT_RAD)``.
+    divergence_groups = ((X,), (THETA,))
 
     def __init__(self, config: SailConfig, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0) -> None:
@@ -368,12 +384,6 @@ class PlanarPlant(LinearPlant):
         # |Lc θ| ≤ a and |θ| ≤ MAX_TILT_RAD in one bound on |θ|.
         limits = np.stack([np.full(len(lc), c.aperture_radius_m), np.minimum(c.aperture_radius_m / lc, MAX_TILT_RAD)], 1)
         return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), limits, growth, shared)
-
-    def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
-        """The sail has left the beam (``|X|`` or ``|Lc θ|`` beyond the aperture) or the small-angle
-        regime; NaN counts as left."""
-        inside = np.abs(x[:, LIMITED_STATES]) <= p.limits
-        return ~(inside[:, 0] & inside[:, 1])
 
     @property
     def acceleration_m_s2(self) -> float:

@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from sail_env.physics.config import SEED
+from sail_env.physics.config import SEED, boolean, real_number
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
 from sail_env.physics.noise import moment_generator, moment_growth_rate
 from sail_env.physics.plant import MAX_TILT_RAD, LinearPlant, PlantParams
@@ -37,6 +37,8 @@ from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights
+from sail_env.physics.rigid3d.limits import (DUST_SPEED_M_S, MAX_POWER_CONTROL, check_flight, check_grain_mass,
+                                             check_spin)
 from sail_env.physics.rigid3d.damping import damped_linearisation
 from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation
 from sail_env.physics.rigid3d.scales import ScaleTable
@@ -52,9 +54,6 @@ COAST_SEGMENT_S = 5.0
 #: Halvings that locate where a draw's spot starts widening within a coast piece (5 s / 2⁵⁰).
 BISECTIONS = 50
 X, Y, VX, VY, THETA_X, THETA_Y, OMEGA_X, OMEGA_Y = range(8)
-#: Mean speed [m/s] of interplanetary grains at 1 AU (Grün et al. 1985): with the sail's axial
-#: speed it sets the impact speed; its per-axis share ``/√3`` sets the lateral momentum of a grain.
-DUST_SPEED_M_S = 2.0e4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,17 +106,16 @@ class RigidFlight:
         if not isinstance(self.sail, RigidSailConfig):
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
         for name in ("relativistic", "velocity_terms"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"{name} must be a bool, got {getattr(self, name)!r}")
-        length = self.diffraction_length_m
-        if isinstance(length, bool) or not isinstance(length, (int, float)) or not length > 0:
-            raise ValueError(f"diffraction_length_m must be > 0 (inf: no diffraction), got {length!r}")
+            object.__setattr__(self, name, boolean(getattr(self, name), name))
         for field in dataclasses.fields(RigidFlight)[1:]:  # a subclass checks its own fields
-            if field.name in ("relativistic", "velocity_terms", "diffraction_length_m"):
+            if field.name in ("relativistic", "velocity_terms"):
                 continue
-            value = getattr(self, field.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            value = real_number(getattr(self, field.name), field.name)
+            if math.isnan(value) or (math.isinf(value) and field.name != "diffraction_length_m"):
                 raise ValueError(f"{field.name} must be a finite real number, got {value!r}")
+            object.__setattr__(self, field.name, value)  # NumPy scalars and ints stored as float
+        if not self.diffraction_length_m > 0:
+            raise ValueError(f"diffraction_length_m must be > 0 (inf: no diffraction), got {self.diffraction_length_m}")
         for name in ("beam_cutoff_s", "control_step_s", "control_window_s"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
@@ -127,8 +125,11 @@ class RigidFlight:
         if not 0 <= self.payload_offset_m <= self.sail.aperture_radius_m:
             raise ValueError(f"payload_offset_m must be in [0, aperture_radius_m = {self.sail.aperture_radius_m}], "
                              f"got {self.payload_offset_m}")
-        if not 0 <= self.power_control <= 0.5:
-            raise ValueError(f"power_control must be in [0, 0.5], got {self.power_control}")
+        if not 0 <= self.power_control <= MAX_POWER_CONTROL:
+            raise ValueError(f"power_control must be in [0, {MAX_POWER_CONTROL}] (0: no power input), "
+                             f"got {self.power_control}")
+        check_spin(self.spin_rad_s, self.control_step_s)
+        check_grain_mass(self.dust_grain_mass_kg)
         if self.control_start_s < 0:
             raise ValueError(f"control_start_s must be >= 0, got {self.control_start_s}")
         if self.control_window_s < self.control_step_s:
@@ -193,6 +194,11 @@ class RigidPlant(LinearPlant):
     #: A constant-term column even without a payload offset (a subclass's drawn constant drive).
     always_biased = False
     velocity_rows = (VX, VY)
+    #: Components limited together at the start, as divergence limits them: ``√(x² + y²)`` and so on.
+    radial_pairs = ((X, Y), (VX, VY), (THETA_X, THETA_Y), (OMEGA_X, OMEGA_Y))
+    #: The CoM has left the aperture (``√(x² + y²) > a``) or the tilt the small-angle regime or the
+    #: aperture (``√(θx² + θy²) > min(a/Lc, MAX_TILT_RAD)``).
+    divergence_groups = ((X, Y), (THETA_X, THETA_Y))
 
     def __init__(self, flight: RigidFlight, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0) -> None:
@@ -200,6 +206,7 @@ class RigidPlant(LinearPlant):
         self.sail = RigidSail(flight.sail)
         self.linearisation = lin = damped_linearisation(self.sail, spin=flight.spin_rad_s,
                                                         velocity_terms=flight.velocity_terms)
+        check_flight(flight, lin, parameter_spread, beam_jitter_m)
         power = flight.power_control > 0
         self.input_names = INPUT_NAMES + (("beam_power",) if power else ())
         self.input_units = ("m", "m", "rad", "rad") + (("1",) if power else ())
@@ -380,13 +387,6 @@ class RigidPlant(LinearPlant):
         c = self.config.sail
         tilt = min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)
         return np.repeat([c.aperture_radius_m, c.aperture_radius_m / self.dt, tilt, tilt / self.dt], 2)
-
-    def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
-        """The CoM has left the beam's aperture (``√(x² + y²) > a``) or the tilt the small-angle
-        regime or the aperture (``√(θx² + θy²) > min(a/Lc, MAX_TILT_RAD)``); NaN counts as left."""
-        offset = np.hypot(x[:, X], x[:, Y])
-        tilt = np.hypot(x[:, THETA_X], x[:, THETA_Y])
-        return ~((offset <= p.limits[:, 0]) & (tilt <= p.limits[:, 1]))
 
     def power_factor(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The Doppler power factor at flight time ``t`` of sails with ``ratio`` times the nominal

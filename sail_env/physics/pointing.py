@@ -18,6 +18,10 @@ from sail_env.physics.planar import VX, PlanarModel, rates
 #: Seed eq 20: the flight direction must be within ~1e-8 rad to pass Proxima b closer
 #: than the Earth-Moon distance (see :func:`sail_env.physics.mission.pointing_tolerance_rad`).
 POINTING_TOLERANCE_RAD = 1e-8
+#: Largest growth ``e^MAX_LOOKAHEAD_GROWTH`` of an unstable sail over the envelope's look-ahead: an
+#: unstable mode whose beat sets a long look-ahead would overflow the table (a spinning balloon's
+#: slow beat, e.g.), and an envelope e^20 above the state already saturates the reward.
+MAX_LOOKAHEAD_GROWTH = 20.0
 
 
 def pointing_error(model: PlanarModel, state: np.ndarray, t: float) -> float:
@@ -35,7 +39,8 @@ def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_p
     least ``periods`` of the slowest mode) sampled at ``samples_per_fast_period`` per
     period of the fastest, so its maximum converges to the sum of the modes' amplitudes;
     for a single mode it is the amplitude within ``1 − cos(π/n)``. A model without
-    oscillation looks ahead five e-folding times (at least 5 s). Each model gets its own
+    oscillation looks ahead five e-folding times (at least 5 s); an unstable one at most
+    :data:`MAX_LOOKAHEAD_GROWTH` e-folds. Each model gets its own
     number of samples; shorter tables are padded with their last row, which leaves the
     maximum unchanged. ``mode_rates`` is ``(growth (...,), frequencies (..., 2), NaN where
     none)``, by default the planar closed form :func:`~sail_env.physics.planar.rates`.
@@ -51,6 +56,7 @@ def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_p
     oscillating = count > 0
     with np.errstate(divide="ignore", invalid="ignore"):
         horizon = np.where(oscillating, periods * 2 * np.pi / np.minimum(slowest, beat), 5.0 / rate)
+        horizon = np.minimum(horizon, np.where(growth > 0, MAX_LOOKAHEAD_GROWTH / growth, np.inf))
         spacing = np.where(oscillating, 2 * np.pi / fastest / samples_per_fast_period, 5.0 / rate / 64)
     samples = np.minimum(max_samples, np.maximum(2, np.ceil(horizon / spacing).astype(np.int64) + 1))
     n, m = b.shape[-2:]

@@ -71,11 +71,16 @@ def test_window_ending_exactly_at_the_cutoff_is_scored_there():
     (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0), {"light_delay": True}, "11"),  # commands in flight
     # The last command, sent at 10.995 s, arrives 4 steps (D = ½ a t² / c = 20.2 ms) later: after 11.0175 s.
     (SEED.replace(control_start_s=10.0, beam_cutoff_s=11.0175), {"light_delay": True}, "11.0175"),
-    (SEED.replace(beam_cutoff_s=2.0), {"cutoff_jitter_s": 1.5}, "0.5"),  # the earliest cut-off falls in the window
 ])
 def test_cutoff_before_the_last_command_arrives_is_refused(config, kwargs, earliest):
     with pytest.raises(ValueError, match=f"beam_cutoff_s - cutoff_jitter_s = {earliest} s must be >="):
         LightSailEnv(config, **kwargs)
+
+
+def test_a_cutoff_jitter_reaching_into_the_window_names_its_range():
+    """The earliest cut-off falls in the window: the message names cutoff_jitter_s and its range."""
+    with pytest.raises(ValueError, match=r"^cutoff_jitter_s must be in \[0, 1\] s: .* got 1.5$"):
+        LightSailEnv(SEED.replace(beam_cutoff_s=2.0), cutoff_jitter_s=1.5)
 
 
 def test_parameter_spread_that_can_draw_an_invalid_sail_is_refused():

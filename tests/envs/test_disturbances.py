@@ -11,7 +11,7 @@ import scipy.linalg
 
 import sail_env  # noqa: F401  (registers the ids)
 from agents import LQRAgent, PassiveAgent
-from sail_env.core.episode import LOG_RATIO_RANGE
+from sail_env.core.reward import LOG_RATIO_RANGE
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel, WhiteNoise, propagate_moments
 from sail_env.physics.constants import SPEED_OF_LIGHT
 
@@ -34,7 +34,7 @@ def test_sensor_noise_has_its_configured_size_on_each_observed_component():
     envs.reset(seed=0)
     steps(envs, 7)
     obs = envs.core.observe()
-    error = spec.observation_to_state(obs) - envs.core.x
+    error = spec.observation_to_state(obs) - envs.state.x
     std = error.std(axis=0)
     np.testing.assert_array_less(np.abs(std / sigma - 1), 4 / math.sqrt(2 * N))
     np.testing.assert_array_less(np.abs(error.mean(axis=0)), 4 * np.array(sigma) / math.sqrt(N))
@@ -42,7 +42,7 @@ def test_sensor_noise_has_its_configured_size_on_each_observed_component():
     quiet = vector()
     quiet.reset(seed=0)
     steps(quiet, 7)
-    np.testing.assert_array_equal(quiet.core.x, envs.core.x)
+    np.testing.assert_array_equal(quiet.state.x, envs.state.x)
 
 
 def test_beam_jitter_acts_on_the_offset_in_the_window():
@@ -61,9 +61,9 @@ def test_beam_jitter_acts_on_the_offset_in_the_window():
         expected += sigma**2 * np.outer(column, column)
         expected_mean = phi @ expected_mean + gamma @ u
         column = phi @ column
-    measured = envs.core.x.var(axis=0)
+    measured = envs.state.x.var(axis=0)
     np.testing.assert_array_less(np.abs(measured / np.diag(expected) - 1), 4 * math.sqrt(2 / N))
-    np.testing.assert_array_less(np.abs(envs.core.x.mean(axis=0) - expected_mean), 4 * np.sqrt(np.diag(expected) / N))
+    np.testing.assert_array_less(np.abs(envs.state.x.mean(axis=0) - expected_mean), 4 * np.sqrt(np.diag(expected) / N))
 
 
 def test_beam_jitter_of_every_step_is_its_own_draw_with_light_delay():
@@ -127,7 +127,7 @@ def test_push_noise_acts_in_the_window():
     d = (scipy.linalg.expm((model.A + h * a_push) * dt) - scipy.linalg.expm((model.A - h * a_push) * dt)) / (2 * h)
     powers = [np.linalg.matrix_power(phi, j) for j in range(k)]
     expected = sigma**2 * sum((powers[k - 1 - j] @ d @ powers[j] @ start) ** 2 for j in range(k))
-    measured = envs.core.x.var(axis=0)
+    measured = envs.state.x.var(axis=0)
     np.testing.assert_array_less(np.abs(measured / expected - 1), 4 * math.sqrt(2 / N))
 
 
@@ -154,14 +154,14 @@ def test_parameter_spread_draws_each_episode_from_the_box():
     envs = vector(env_id="LightSailDeepDish-v0", parameter_spread=s)
     envs.reset(seed=4)
     nominal = DEEP_DISH.axial_acceleration_m_s2
-    ratio = envs.core.params.acceleration / nominal
+    ratio = envs.state.params.acceleration / nominal
     # a = F / (m_sail f1 + m_craft f2), f uniform in [1 ± s], equal masses: 1/a ∝ (f1 + f2)/2.
     inverse = 1 / ratio
     assert inverse.min() >= 1 - s and inverse.max() <= 1 + s
     assert inverse.mean() == pytest.approx(1.0, abs=4 * s / math.sqrt(6 * N))
     assert inverse.std() == pytest.approx(s / math.sqrt(6), rel=4 / math.sqrt(2 * N) + 0.02)
     # The drawn models act: each environment's system matrix is its own.
-    assert np.unique(envs.core.params.a[:, 3, 2]).size == N
+    assert np.unique(envs.state.params.a[:, 3, 2]).size == N
 
 
 def test_parameter_spread_coasts_each_episode_with_its_own_sail():
@@ -170,7 +170,7 @@ def test_parameter_spread_coasts_each_episode_with_its_own_sail():
     env = gym.make("LightSailDeepDish-v0", parameter_spread=0.1)
     for seed in range(3):
         env.reset(seed=seed)
-        a = env.unwrapped.core.params.a[0]
+        a = env.unwrapped.state.params.a[0]
         assert not np.array_equal(a, PlanarModel(DEEP_DISH).A)
         for _ in range(DEEP_DISH.control_steps):
             _, _, done, _, info = env.step(np.zeros(2, dtype=np.float32))
@@ -184,7 +184,7 @@ def test_cutoff_jitter_is_uniform_over_its_width():
     width = 5.0
     envs = vector(cutoff_jitter_s=width)
     envs.reset(seed=5)
-    offset = envs.core.cutoff_s - SEED.beam_cutoff_s
+    offset = envs.state.cutoff_s - SEED.beam_cutoff_s
     assert np.abs(offset).max() <= width
     assert offset.std() == pytest.approx(width / math.sqrt(3), rel=4 / math.sqrt(N))
 

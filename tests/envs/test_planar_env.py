@@ -177,8 +177,8 @@ def _check_delayed_observations(env, seed, steps=20):
     exact propagation exp(A (k − D(k)) dt) of the state at control start. Returns D."""
     spec = env.unwrapped.episode_spec
     obs, info = env.reset(seed=seed)
-    core = env.unwrapped.core
-    a, accel = core.params.a[0], core.params.acceleration[0]
+    params = env.unwrapped.state.params
+    a, accel = params.a[0], params.acceleration[0]
     t = spec.config.control_start_s + np.arange(steps + 1) * spec.dt
     delays = np.rint(0.5 * accel * t**2 / 299_792_458.0 / spec.dt).astype(int)
     start = np.array(list(info["state"].values()))

@@ -57,3 +57,20 @@ def test_tolerance_constant_matches_eq20():
     from sail_env.physics.mission import pointing_tolerance_rad
 
     assert POINTING_TOLERANCE_RAD == pytest.approx(pointing_tolerance_rad(4e8), rel=0.01)
+
+
+def test_an_unstable_sails_look_ahead_is_bounded_so_its_envelope_stays_finite():
+    """A spinning flat sail grows at 100 /s while its slow beat (0.03 rad/s) sets a look-ahead of
+    200 s: e^20,000 overflowed the table into a non-finite reward. The look-ahead stops at
+    MAX_LOOKAHEAD_GROWTH e-folds."""
+    import gymnasium as gym
+
+    from sail_env.physics.linear import mode_rates
+    from sail_env.physics.pointing import MAX_LOOKAHEAD_GROWTH
+
+    plant = gym.make("LightSail3D-v0", sail_shape="flat", spin_rad_s=10.0).unwrapped.episode_spec.plant
+    growth, _ = mode_rates(plant.nominal.A)
+    assert growth > 50
+    with np.errstate(over="raise", invalid="raise"):
+        table = plant.params(np.ones((1, plant.n_factors))).envelope[0]
+    assert np.all(np.isfinite(table)) and np.abs(table).max() < np.exp(2 * MAX_LOOKAHEAD_GROWTH)

@@ -11,15 +11,39 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
-from sail_env.physics.config import SEED
+import scipy.stats
+
+from sail_env.physics.config import SEED, real_number
 from sail_env.physics.constants import SPEED_OF_LIGHT
+from sail_env.physics.mission import LASER_WAVELENGTH_M
 
 SHAPES = ("dish", "balloon", "flat", "cone")
 BEAM_PROFILES = ("flat-top", "gaussian", "multi-gaussian", "annulus")
 
 #: Beam power whose push on a perfect flat mirror catching all of it is the seed's 100 N.
 SEED_BEAM_POWER_W = SEED.push_force_n * SPEED_OF_LIGHT / 2.0
+#: Largest ``R / a`` of a curved sail. The curvature's terms go as ``a/R``: at ``R = 1e4 a`` (a sag of
+#: ``a/2e4``, 0.1 mm on the seed's 2 m sail) they are 1e-4 of the flat sail's, the surface quadrature's
+#: own accuracy (:data:`WAIST_NODE_SPACINGS`), so a flatter sail is ``shape="flat"`` within the model's
+#: accuracy; and the cone's ray intersection loses all precision from ~5e4 a.
+MAX_CURVATURE_OVER_APERTURE = 1e4
+#: Smallest fraction of the beam's power the centred sail must catch. The linearisation is about the
+#: centred sail in its spot: a spot that misses it (an annulus whose hole is wider than the sail, lobes
+#: far outside its rim, a spot far wider than it) leaves no push and no restoring force to linearise,
+#: and the axial flight and the scored pointing ``V⊥/Vz`` divide by the push. Below 1 % the push is
+#: under 1 N and the flight a hundredth of the design's: no longer a beam-riding sail.
+MIN_CAUGHT_FRACTION = 0.01
+#: A Gaussian waist must span this many mean radial spacings ``a / radial_nodes`` of the surface
+#: quadrature: at 1.6 (a/10 at 16 nodes) the push is within 1e-4 of a 4x finer quadrature's
+#: (at a/16: 3e-3; at a/100: 64 % off).
+WAIST_NODE_SPACINGS = 1.6
+#: Why ``beam_radius_m`` has its lower bound, per profile.
+BEAM_RADIUS_LIMITS = {"flat-top": "no beam focuses below its wavelength",
+                      "annulus": "its inner edge, half of it, no smaller than the wavelength",
+                      "gaussian": f"the waist spans {WAIST_NODE_SPACINGS:g} radial node spacings of the surface quadrature",
+                      "multi-gaussian": "the radius of the ring of lobes, which may be any"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,10 +102,15 @@ class RigidSailConfig:
             value = getattr(self, field.name)
             if field.type in ("str",) or value is None:
                 continue
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"{field.name} must be a real number, got {value!r}")
+            if field.name in ("beam_lobes", "radial_nodes", "angular_nodes"):
+                if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+                    raise ValueError(f"{field.name} must be an integer, got {value!r}")
+                object.__setattr__(self, field.name, int(value))
+                continue
+            value = real_number(value, field.name)
             if not math.isfinite(value):
                 raise ValueError(f"{field.name} must be finite, got {value}")
+            object.__setattr__(self, field.name, value)  # NumPy scalars and ints stored as float
         positive = ("aperture_radius_m", "com_distance_m", "sail_mass_kg", "craft_mass_kg",
                     "beam_power_w", "beam_radius_m", "beam_inner_radius_m", "beam_lobe_waist_m")
         for name in positive:
@@ -90,12 +119,15 @@ class RigidSailConfig:
                 raise ValueError(f"{name} must be > 0, got {value}")
         if self.strut_mass_kg < 0:
             raise ValueError(f"strut_mass_kg must be >= 0, got {self.strut_mass_kg}")
-        if self.shape != "flat" and not self.curvature_radius_m > self.aperture_radius_m:
-            raise ValueError(f"curvature_radius_m must be > aperture_radius_m ({self.aperture_radius_m} m) "
-                             f"for a {self.shape}, got {self.curvature_radius_m}")
-        if not self.strut_length_m >= self.com_distance_m:
-            raise ValueError(f"strut_length_m must be >= com_distance_m ({self.com_distance_m} m), "
-                             f"got {self.strut_length_m}")
+        a = self.aperture_radius_m
+        if self.shape != "flat" and not a < self.curvature_radius_m <= MAX_CURVATURE_OVER_APERTURE * a:
+            raise ValueError(f"curvature_radius_m must be in ({a:g}, {MAX_CURVATURE_OVER_APERTURE * a:g}] m for a "
+                             f"{self.shape} (above aperture_radius_m, at most {MAX_CURVATURE_OVER_APERTURE:g} times "
+                             f"it: flatter is sail_shape='flat'), got {self.curvature_radius_m}")
+        if not self.com_distance_m <= self.strut_length_m:
+            raise ValueError(f"com_distance_m must be in (0, {self.strut_length_m:g}] m (the CoM lies between the sail "
+                             f"and the payload, strut_length_m = {self.strut_length_m:g} m behind the vertex), "
+                             f"got {self.com_distance_m}")
         for name in ("reflectivity", "absorptivity"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
@@ -107,8 +139,57 @@ class RigidSailConfig:
                              f"got {self.beam_inner_radius_m}")
         for name, low in (("beam_lobes", 1), ("radial_nodes", 2), ("angular_nodes", 8)):
             value = getattr(self, name)
-            if not (isinstance(value, int) and value >= low):
+            if not value >= low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+        self._check_spot()
+
+    def _check_spot(self) -> None:
+        """The beam's radius within :meth:`beam_radius_range` (and a multi-Gaussian's lobes resolved)."""
+        if self.beam_profile == "multi-gaussian" and not self.lobe_waist_m >= self.min_waist_m:
+            raise ValueError(f"beam_lobe_waist_m must be >= {self.min_waist_m:.4g} m (a Gaussian waist spans "
+                             f"{WAIST_NODE_SPACINGS:g} radial node spacings of the surface quadrature), "
+                             f"got {self.lobe_waist_m}")
+        low, high = self.beam_radius_range()
+        if not low <= self.outer_beam_radius_m <= high:
+            raise ValueError(f"beam_radius_m must be in {'(' if low == 0 else '['}{low:.4g}, {high:.4g}] m for the "
+                             f"{self.beam_profile} beam on "
+                             f"this sail ({BEAM_RADIUS_LIMITS[self.beam_profile]}; the sail must catch >= "
+                             f"{MIN_CAUGHT_FRACTION:.0%} of its power), got {self.outer_beam_radius_m}")
+
+    def beam_radius_range(self) -> tuple[float, float]:
+        """``beam_radius_m``'s valid range: from the smallest spot the quadrature resolves (a Gaussian's
+        waist) or a beam can focus to (its wavelength) to the widest whose power the sail still catches
+        :data:`MIN_CAUGHT_FRACTION` of (bisected: the caught fraction falls as the radius grows)."""
+        low = {"gaussian": self.min_waist_m, "multi-gaussian": 0.0}.get(self.beam_profile, LASER_WAVELENGTH_M)
+        if self.beam_profile == "annulus" and self.beam_inner_radius_m is None:
+            low *= 2.0  # the inner edge, half the outer radius, is the smaller spot
+        below, above = self.aperture_radius_m * 1e-3, self.aperture_radius_m / math.sqrt(MIN_CAUGHT_FRACTION) * 1e3
+        for _ in range(60):
+            middle = math.sqrt(below * above)
+            below, above = (middle, above) if self.caught_fraction(outer_m=middle) >= MIN_CAUGHT_FRACTION else (below, middle)
+        return low, below
+
+    @property
+    def min_waist_m(self) -> float:
+        """Smallest Gaussian waist the surface quadrature resolves (:data:`WAIST_NODE_SPACINGS`)."""
+        return WAIST_NODE_SPACINGS * self.aperture_radius_m / self.radial_nodes
+
+    def caught_fraction(self, scale: float = 1.0, outer_m: float | None = None) -> float:
+        """Fraction of the beam's power crossing the sail's disc of radius ``a`` (centred, the spot
+        widened by ``scale``; with the outer radius ``outer_m`` instead of the configured one)."""
+        a = self.aperture_radius_m / scale
+        outer = self.outer_beam_radius_m if outer_m is None else outer_m
+        if self.beam_profile in ("flat-top", "annulus"):
+            inner = 0.5 * outer if self.beam_inner_radius_m is None else self.beam_inner_radius_m
+            inner = inner if self.beam_profile == "annulus" else 0.0
+            # Ratios to the outer radius: no square overflows for any finite radius.
+            caught = min(a / outer, 1.0) ** 2 - min(a / outer, inner / outer) ** 2
+            return max(caught, 0.0) / (1.0 - (inner / outer) ** 2)
+        multi = self.beam_profile == "multi-gaussian"
+        sigma = 0.5 * (self.lobe_waist_m if multi else outer)
+        centre = outer if multi else 0.0
+        # A Gaussian of standard deviation σ per axis centred at r: |p|²/σ² is non-central χ² with 2 degrees.
+        return float(scipy.stats.ncx2.cdf((a / sigma) ** 2, 2, (centre / sigma) ** 2))
 
     @property
     def outer_beam_radius_m(self) -> float:
@@ -133,5 +214,5 @@ class RigidSailConfig:
 
 
 def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
-    if value not in choices:
+    if not (isinstance(value, str) and value in choices):
         raise ValueError(f"{name} must be one of {choices}, got {value!r}")

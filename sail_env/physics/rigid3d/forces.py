@@ -115,8 +115,11 @@ class RadiationModel:
         qc = np.sum(g0 * g0, axis=-1)[:, None] - 1.0
         disc = qb**2 - qa * qc
         root = np.sqrt(np.maximum(disc, 0.0))
-        lo = np.maximum(np.maximum((-qb - root) / qa, 0.0), inner[:, None])
-        hi = np.minimum((-qb + root) / qa, outer[:, None])
+        far = (-qb + root) / qa
+        # A ray whose lit part begins beyond the shadow's edge (an annulus's hole wider than the sail)
+        # carries nothing: its empty interval sits on the edge, where the surface exists.
+        lo = np.minimum(np.maximum(np.maximum((-qb - root) / qa, 0.0), inner[:, None]), far)
+        hi = np.minimum(far, outer[:, None])
         hi = np.where(disc > 0, np.maximum(hi, lo), lo)  # a ray missing the shadow carries nothing
 
         r = lo[..., None] + (hi - lo)[..., None] * self._radial_nodes  # (N, angles, radial)

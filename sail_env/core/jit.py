@@ -1,0 +1,16 @@
+"""The one place the core's compiled functions get their compiler options.
+
+``error_model="numpy"``: a division by zero gives inf/NaN as in NumPy instead of a check and a
+branch on every division (which also stops LLVM from vectorising the loops). ``cache=True``: the
+machine code is written beside the source (``__pycache__``), so only the first import after a
+change compiles (seconds); later processes load it (a fraction of a second). With
+``NUMBA_DISABLE_JIT=1`` the same functions run as plain Python, which is how coverage and
+mutation tools see the kernels' logic (tests/core/test_disable_jit.py).
+"""
+
+from __future__ import annotations
+
+import numba
+
+#: The decorator of every compiled function of the core.
+compiled = numba.njit(cache=True, error_model="numpy", nogil=True)

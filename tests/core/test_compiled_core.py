@@ -1,0 +1,118 @@
+"""The compiled core's seams: the episode state's documented fields, the plant's divergence rule
+as data, success and the delay rule each decided in one place, and the kernels' logic run as
+plain Python (``NUMBA_DISABLE_JIT=1``)."""
+
+import dataclasses
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sail_env  # noqa: F401
+from sail_env.core.delay import arrived_command
+from sail_env.core.episode import EpisodeCore
+from sail_env.core.reward import log_ratio, succeeded
+from sail_env.core.state import EpisodeState
+from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
+
+ROOT = Path(__file__).parents[2]
+
+
+def test_every_field_of_the_episode_state_is_documented_and_a_view_of_its_buffer():
+    doc = EpisodeState.__doc__
+    core = gym.make_vec("LightSailRealistic-v0", num_envs=3, vectorization_mode="vector_entry_point").unwrapped.core
+    for field in dataclasses.fields(EpisodeState):
+        if field.name in ("floats", "ints", "layout"):
+            continue
+        assert re.search(rf"\b{field.name}\b", doc), field.name
+        value = getattr(core.state, field.name)
+        if isinstance(value, np.ndarray):
+            assert len(value) == 3, field.name
+            if value.size:
+                assert np.shares_memory(value, core.state.floats) or np.shares_memory(value, core.state.ints), field.name
+
+
+def test_the_envs_and_agents_read_the_core_only_through_its_state():
+    """Outside the core nothing reaches into ``core.<array>``: the documented state is the interface."""
+    users = [*(ROOT / "sail_env" / "envs").glob("*.py"), *(ROOT / "agents").glob("*.py")]
+    allowed = {"state", "step", "reset", "observe"}
+    reached = {(path.name, name) for path in users for name in re.findall(r"\b(?:self|unwrapped|envs|env)\.core\.([a-z_]\w*)", path.read_text())
+               if name not in allowed}
+    assert not reached
+
+
+@pytest.mark.parametrize("env_id", ["LightSailRealistic-v0", "LightSail3D-v0"])
+def test_the_compiled_step_applies_the_divergence_rule_the_plant_declares(env_id):
+    """States around the limits: the kernel's divergence is the plant's declared rule (NumPy) on the
+    state it reached, group by group (a box in the plane, radial in 3D)."""
+    n = 1000
+    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point").unwrapped
+    envs.reset(seed=1)
+    plant, state = envs.episode_spec.plant, envs.state
+    assert plant.divergence_groups == (((0,), (2,)) if plant.n_states == 4 else ((0, 1), (4, 5)))
+    limits = state.params.limits
+    rng = np.random.default_rng(0)
+    start = np.zeros((n, plant.n_states))
+    for column, rows in enumerate(plant.divergence_groups):
+        start[:, list(rows)] = rng.uniform(-1.0, 1.0, (n, len(rows))) * limits[:, column][:, None]
+    state.x[:] = start
+    result = envs.core.step(np.zeros((n, plant.n_inputs)))
+    expected = plant.diverged(state.params, state.x)
+    assert 0.05 < expected.mean() < 0.95
+    np.testing.assert_array_equal(result.diverged.astype(bool), expected)
+
+
+def test_success_is_decided_in_one_place():
+    users = [*(ROOT / "sail_env").rglob("*.py"), *(ROOT / "agents").glob("*.py")]
+    deciding = sorted(str(path.relative_to(ROOT)) for path in users if path.name != "paper.py"
+                      and re.search(r"<=\s*POINTING_TOLERANCE_RAD", path.read_text()))
+    assert deciding == ["sail_env/core/reward.py"]
+    assert list(succeeded(np.array([0.0, POINTING_TOLERANCE_RAD, 2e-8, np.inf, np.nan]))) == [True, True, False,
+                                                                                             False, False]
+
+
+def test_log_ratio_is_clipped_and_keeps_nan():
+    values = log_ratio(np.array([0.0, 1e-8, 1e-7, 1.0, np.nan]))
+    np.testing.assert_array_equal(values[:4], [-2.0, 0.0, 1.0, 3.0])
+    assert np.isnan(values[4])
+
+
+def test_the_delay_rule_gives_the_newest_arrived_command():
+    assert arrived_command(5, 2, 10) == 3  # sent at step 3 arrives at step 5
+    assert arrived_command(5, 2, 1) == 1  # no newer one was sent
+    assert arrived_command(1, 2, 10) == -1  # nothing has arrived yet
+    assert arrived_command(3, 0, -1) == -1  # nothing sent
+
+
+def test_a_batch_reset_draws_what_each_environment_would_alone():
+    """One uniform call and one normal call per environment draw the numbers separate calls draw."""
+    spec = gym.make("LightSailRealistic-v0").unwrapped.episode_spec
+    batch, single = EpisodeCore(spec, 3), EpisodeCore(spec, 1)
+    batch.reset(np.arange(3), [np.random.default_rng(s) for s in (7, 8, 9)])
+    single.reset(np.arange(1), [np.random.default_rng(8)])
+    for name in ("x", "cutoff_s", "normals", "delay", "lag0"):
+        np.testing.assert_array_equal(getattr(batch.state, name)[1], getattr(single.state, name)[0], err_msg=name)
+
+
+#: A few tests of tests/core and tests/envs, run with the kernels as plain Python.
+SUBSET = ["tests/core/test_same_numbers.py::test_noise_free_episodes_are_those_of_v0_1_0[LightSail-v0|delay10s]",
+          "tests/core/test_recorded_noisy_episodes.py::test_noisy_episodes_are_those_recorded[LightSail3DRealistic-v1-3]",
+          "tests/core/test_compiled_core.py::test_the_compiled_step_applies_the_divergence_rule_the_plant_declares"
+          "[LightSail3D-v0]",
+          "tests/core/test_limits.py::test_vector_env_refuses_non_finite_actions_and_a_step_before_reset"]
+
+
+@pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT") == "1", reason="already running without the compiler")
+def test_the_kernels_logic_runs_as_python_with_the_same_results():
+    """``NUMBA_DISABLE_JIT=1`` runs the kernels' source as Python: the recorded episodes and the
+    env's tests pass that way too (so coverage and mutation tools see the step's logic)."""
+    env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", *SUBSET],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert " passed" in done.stdout and "failed" not in done.stdout
