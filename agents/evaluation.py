@@ -3,8 +3,10 @@
     python evaluate.py --agent passive --agent lqr --agent runs/LightSail-v0-ppo-0/best_model.zip
     python evaluate.py --env LightSailRealistic-v0 --agent lqg --agent PATH.zip --episodes 200
 
-``--agent`` is ``passive``, ``lqr``, ``lqg`` or the path of a model saved by ``train.py``
-(loaded with the VecNormalize statistics beside it, acting deterministically; its run's
+``--agent`` is ``passive``, ``lqr``, ``lqg``, ``lqg-mm`` (3D tasks: a bank of LQGs on a grid of models,
+acting with the one that predicts best, agents/adaptive.py), a ceiling ``lqr-oracle`` or ``lqg-oracle`` (bounds that
+read the simulator's true state and parameter draw, agents/oracle.py; no station could field them)
+or the path of a model saved by ``train.py`` (loaded with the VecNormalize statistics beside it, acting deterministically; its run's
 ``run.json`` says whether it needs them and which env it was trained on).
 Episode ``i`` is ``env.reset(seed=seed + i)`` for every agent, so all agents face the
 same start states, cut-off times and noise draws: the comparison is paired.
@@ -36,13 +38,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
+from agents.adaptive import MultipleModelLQGAgent  # noqa: E402
+from agents.oracle import OracleLQGAgent, OracleLQRAgent, attach  # noqa: E402
 from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, describe, fail  # noqa: E402
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
 from sail_env.core.spec import EpisodeSpec  # noqa: E402
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
 from sail_env.tasks import TASKS  # noqa: E402
 
-BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
+BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent,
+                                                        # Bounds that read the simulator's truth (agents/oracle.py).
+                                                        "lqr-oracle": OracleLQRAgent, "lqg-oracle": OracleLQGAgent,
+                                                        # Multiple-model adaptive LQG for the 3D tasks (agents/adaptive.py).
+                                                        "lqg-mm": MultipleModelLQGAgent}
 #: Apart from the seeds train.py trains and selects models on.
 DEFAULT_SEED = 100_000
 #: The tilt on the x axis (the planar model's θ, the 3D model's θy) and the beam inputs acting on it:
@@ -76,6 +84,7 @@ def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False)
     action_scale = env.unwrapped.episode_spec.action_scale
     tilt = next(name for name in X_AXIS_TILTS if name in plant.state_names)
     inputs = [i for i, name in enumerate(plant.input_names) if name in X_AXIS_INPUTS]
+    attach(agent, env)
     obs, info = env.reset(seed=seed)
     agent.reset()
     start = info["state"]
@@ -300,9 +309,12 @@ def markdown(env_id: str, config: dict[str, Any], summary: dict[str, dict[str, A
     return "\n".join(lines)
 
 
-def run_batch(env_id: str, agent: Agent, episodes: int, seed: int) -> list[dict[str, Any]]:
-    """Episodes ``seed + i`` all at once on the vector env (the same episodes as :func:`run_episode`'s)."""
-    envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point")
+def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
+              env_kwargs: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+    """Episodes ``seed + i`` all at once on the vector env (the same episodes as :func:`run_episode`'s);
+    ``env_kwargs`` change the task's keywords."""
+    envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {}))
+    attach(agent, envs)
     obs, _ = envs.reset(seed=seed)
     agent.reset()
     start = envs.unwrapped.state.x.copy()
@@ -325,7 +337,8 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int) -> list[dict[
              "return": float(returns[i])} for i in range(episodes)]
 
 
-def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: bool = True) -> list[dict[str, Any]]:
+def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: bool = True,
+              env_kwargs: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """:func:`run_batch` in batches of :data:`BATCH_EPISODES` (the same episodes), with a progress bar
     on a terminal, else one line on stderr when done."""
     bar = tqdm(total=episodes, desc=agent.name, unit="episode", file=sys.stderr,
@@ -334,7 +347,7 @@ def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: boo
     with bar:
         for first in range(0, episodes, BATCH_EPISODES):
             batch = min(BATCH_EPISODES, episodes - first)
-            results += run_batch(env_id, agent, batch, seed + first)
+            results += run_batch(env_id, agent, batch, seed + first, env_kwargs)
             bar.update(batch)
     if progress and bar.disable:
         print(f"{agent.name}: {episodes} episodes in {time.perf_counter() - start:.1f} s", file=sys.stderr)

@@ -6,92 +6,165 @@
   mismatch.
 * The estimate is predicted forward, through the commands the agent already sent
   (still in flight or already acting), to the step its new command will reach the sail,
-  with the episode core's delay rule (``EpisodeSpec.delay_steps`` and
-  ``sail_env.core.delay.arrived_command``, the compiled step's own).
+  with the episode core's delay rule (``EpisodeSpec.delay_steps``).
 * The LQR gain of :mod:`agents.lqr`, with the same weights, acts on that prediction. (An input
   weight of 10, once chosen on the planar tasks, was no better there and fails the 3D sail with
   absorption, whose tilt is slowly unstable: 12 % against 100 % success.)
 * A known constant term of the model (a payload off the sail axis, docs/physics.md §15) drives
   the prediction too; the gain does not cancel it (the loop settles where the sail is at rest).
 
-Only the nominal model, the noise levels and the nominal light delay are used; the
-episode's randomised parameters are not.
+:func:`lqg_design` is the design on one model ``(A, B, c)``; :class:`LQGAgent` runs it on the
+nominal model, the noise levels and the nominal light delay: the episode's randomised parameters
+are not used. The ceiling agents of :mod:`agents.oracle` run the same loop on each episode's drawn
+model.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import scipy.linalg
 
 from agents.lqr import INPUT_WEIGHT, lqr_gain, state_weights
-from sail_env.core.delay import arrived_command
 from sail_env.core.spec import EpisodeSpec
-from sail_env.physics.linear import zoh_discretize
+from sail_env.physics.linear import LinearModel, zoh_discretize
 
 #: Process-noise floor per step, relative to the observation scales (model mismatch).
 MODEL_MISMATCH = 3e-3
+
+
+@dataclasses.dataclass(frozen=True)
+class LQGDesign:
+    """One LQG design (SI): the exact step ``x ← Φ x + Γ u + drift``, the LQR gain (``u = −K x``)
+    and the steady-state Kalman gain (``x̂ ← x̂ + L (y − x̂)``). Each array may lead with a batch
+    axis (one design per environment)."""
+
+    phi: np.ndarray
+    gamma: np.ndarray
+    drift: np.ndarray
+    gain: np.ndarray
+    kalman_gain: np.ndarray
+
+    @staticmethod
+    def stack(designs: list[LQGDesign]) -> LQGDesign:
+        """One batched design of per-environment designs (a leading axis on every array)."""
+        return LQGDesign(*(np.stack([getattr(d, f.name) for d in designs]) for f in dataclasses.fields(LQGDesign)))
+
+
+def lqg_design(spec: EpisodeSpec, a: np.ndarray, b: np.ndarray, constant: np.ndarray,
+               input_weight: float = INPUT_WEIGHT, model_mismatch: float = MODEL_MISMATCH) -> LQGDesign:
+    """The LQG of the module docstring designed on the model ``ds/dt = A s + B u + c`` (SI).
+
+    The process noise uses the task's noise levels and the nominal push sensitivity (it sizes the
+    push noise's kick, not the model); ``model_mismatch`` is the per-step floor in state scales
+    (:data:`MODEL_MISMATCH`; larger: a filter that trusts its model less).
+    """
+    if not (np.isfinite(model_mismatch) and model_mismatch > 0):
+        raise ValueError(f"model_mismatch must be finite and > 0, got {model_mismatch!r}")
+    model = LinearModel(np.array(a, dtype=float), np.array(b, dtype=float))
+    dt, scale = spec.dt, spec.state_scale
+    phi, gamma = model.discretize(dt)
+    # The constant term c as an input held at 1: its exact step drive ∫Φ c.
+    drift = zoh_discretize(model.A, np.asarray(constant, dtype=float)[:, None], dt)[1][:, 0]
+    gain = lqr_gain(model, dt, scale, spec.action_scale, input_weight, state_weights(spec))
+    dist = spec.disturbances
+    a_push, _ = spec.nominal.push_sensitivity
+    push_kick = a_push @ scale * dt
+    jitter = gamma[:, list(spec.plant.jitter_inputs)]
+    process = (dist.beam_jitter_m**2 * jitter @ jitter.T
+               + dist.push_noise**2 * np.outer(push_kick, push_kick)
+               + np.diag((model_mismatch * scale) ** 2))
+    sensor = np.diag(np.maximum(spec.sensor_noise_std, 1e-6 * scale) ** 2)
+    covariance = scipy.linalg.solve_discrete_are(phi.T, np.eye(len(scale)), process, sensor)
+    return LQGDesign(phi, gamma, drift, gain, covariance @ np.linalg.inv(covariance + sensor))
+
+
+def _apply(matrix: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """``matrix @ v`` for each row of ``vectors`` (N, ·): one shared matrix or one per row."""
+    return vectors @ matrix.T if matrix.ndim == 2 else np.einsum("nij,nj->ni", matrix, vectors)
 
 
 class LQGAgent:
     """Kalman filter + delay predictor + LQR, with memory of the commands it sent.
 
     Acts on one observation (D,) or a batch (N, D) of episodes started together.
+    ``model_mismatch``: the filter's process-noise floor (:func:`lqg_design`).
     """
 
     name = "lqg"
 
-    def __init__(self, spec: EpisodeSpec, input_weight: float = INPUT_WEIGHT) -> None:
+    def __init__(self, spec: EpisodeSpec, input_weight: float = INPUT_WEIGHT,
+                 model_mismatch: float = MODEL_MISMATCH) -> None:
         self.spec = spec
-        model, dt, scale = spec.nominal, spec.dt, spec.state_scale
-        self.phi, self.gamma = model.discretize(dt)
-        # The constant term c as an input held at 1: its exact step drive ∫Φ c.
-        self.drift = zoh_discretize(model.A, spec.plant.constant_term[:, None], dt)[1][:, 0]
-        self.gain = lqr_gain(model, dt, scale, spec.action_scale, input_weight, state_weights(spec))
-        dist = spec.disturbances
-        a_push, _ = model.push_sensitivity
-        push_kick = a_push @ scale * dt
-        jitter = self.gamma[:, list(spec.plant.jitter_inputs)]
-        process = (dist.beam_jitter_m**2 * jitter @ jitter.T
-                   + dist.push_noise**2 * np.outer(push_kick, push_kick)
-                   + np.diag((MODEL_MISMATCH * scale) ** 2))
-        sensor = np.diag(np.maximum(spec.sensor_noise_std, 1e-6 * scale) ** 2)
-        covariance = scipy.linalg.solve_discrete_are(self.phi.T, np.eye(len(scale)), process, sensor)
-        self.kalman_gain = covariance @ np.linalg.inv(covariance + sensor)
+        self.input_weight, self.model_mismatch = input_weight, model_mismatch
+        self.design = lqg_design(spec, spec.nominal.A, spec.nominal.B, spec.plant.constant_term, input_weight,
+                                 model_mismatch)
         self.reset()
+
+    @property
+    def gain(self) -> np.ndarray:
+        return self.design.gain
+
+    @property
+    def kalman_gain(self) -> np.ndarray:
+        return self.design.kalman_gain
 
     def reset(self) -> None:
         self.step = 0
         self.sent: list[np.ndarray] = []
         self.estimate: np.ndarray | None = None
-        self.estimate_step = 0
+        self.estimate_step = np.zeros(1, dtype=np.int64)
 
-    def _applied(self, step: int, state: np.ndarray) -> np.ndarray:
-        """The input acting during ``step``, by the core's delay rule (:func:`arrived_command`)."""
-        index = arrived_command(step, int(self.spec.delay_steps(step)), len(self.sent) - 1)
-        if index < 0:
-            return np.zeros((*state.shape[:-1], self.gamma.shape[1]))
-        return self.sent[index]
+    def delay(self, step: np.ndarray) -> np.ndarray:
+        """One-way delay [steps] at control steps ``step`` (N,): the nominal rule."""
+        return np.asarray(self.spec.delay_steps(step), dtype=np.int64)
 
-    def _predict(self, state: np.ndarray, step: int) -> np.ndarray:
-        return state @ self.phi.T + self._applied(step, state) @ self.gamma.T + self.drift
-
-    def act(self, observation: np.ndarray) -> np.ndarray:
+    def measure(self, observation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The measured state (N, n) and the step it shows (N,)."""
         measured = self.spec.observation_to_state(observation)
-        shown = self.step - int(self.spec.delay_steps(self.step))
+        now = np.full(len(measured), self.step)
+        return measured, now - self.delay(now)
+
+    def _applied(self, step: np.ndarray) -> np.ndarray:
+        """The input (N, m) acting during each environment's ``step`` (N,), by the core's delay rule."""
+        index = step - self.delay(step)
+        rows = np.arange(len(step))
+        if not self.sent:
+            return np.zeros((len(step), self.design.gamma.shape[-1]))
+        sent = np.stack(self.sent)[np.clip(index, 0, len(self.sent) - 1), rows]
+        return np.where((index >= 0)[:, None], sent, 0.0)
+
+    def _predict(self, state: np.ndarray, step: np.ndarray) -> np.ndarray:
+        d = self.design
+        return _apply(d.phi, state) + _apply(d.gamma, self._applied(step)) + d.drift
+
+    def _advance(self, state: np.ndarray, step: np.ndarray, until: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predict each environment's ``state`` from ``step`` to ``until`` (N,)."""
+        step = step.copy()
+        while np.any(moving := step < until):
+            state = np.where(moving[:, None], self._predict(state, step), state)
+            step += moving
+        return state, step
+
+    def command(self, observations: np.ndarray) -> np.ndarray:
+        """The beam input (N, m) [SI] for observations (N, D), remembered as sent; the filter's
+        innovation (the measurement minus its prediction) is left in :attr:`innovation`."""
+        measured, shown = self.measure(observations)
         if self.estimate is None:
             self.estimate, self.estimate_step = measured, shown
-        while self.estimate_step < shown:
-            self.estimate = self._predict(self.estimate, self.estimate_step)
-            self.estimate_step += 1
-        self.estimate = self.estimate + (measured - self.estimate) @ self.kalman_gain.T
+        self.estimate, self.estimate_step = self._advance(self.estimate, self.estimate_step, shown)
+        self.innovation = measured - self.estimate
+        self.estimate = self.estimate + _apply(self.design.kalman_gain, self.innovation)
         # Predict to the step at which the new command starts to act.
-        prediction, step = self.estimate, self.estimate_step
-        arrival = self.step + int(self.spec.delay_steps(self.step))
-        while step < arrival:
-            prediction = self._predict(prediction, step)
-            step += 1
+        now = np.full(len(measured), self.step)
+        prediction, _ = self._advance(self.estimate, self.estimate_step, now + self.delay(now))
         scale = self.spec.action_scale
-        command = np.clip(-prediction @ self.gain.T, -scale, scale)
+        command = np.clip(-_apply(self.design.gain, prediction), -scale, scale)
         self.sent.append(command)
         self.step += 1
-        return self.spec.input_to_action(command)
+        return command
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        command = self.command(np.atleast_2d(observation))
+        return self.spec.input_to_action(command[0] if np.ndim(observation) == 1 else command)

@@ -15,6 +15,7 @@ from sail_env.physics.config import PRESETS, SailConfig, check_below_light_speed
 from sail_env.physics.mission import one_way_light_delay_s
 from sail_env.physics.plant import PlanarPlant
 from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.uncertainty import UncertainFlight, UncertainPlant
 
 #: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
 DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
@@ -22,7 +23,7 @@ DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
 POSITION_SCALE_M = 1e-2
 TILT_SCALE_RAD = 1e-3
 #: The plant of each kind of configuration.
-PLANTS = {SailConfig: PlanarPlant, RigidFlight: RigidPlant}
+PLANTS = {SailConfig: PlanarPlant, RigidFlight: RigidPlant, UncertainFlight: UncertainPlant}
 #: Round-off allowed between times computed as ``start + steps · dt`` and configured times.
 TIME_TOLERANCE_S = 1e-9
 #: Largest relative push noise per step: a laser cannot pull, and beyond 0.25 a 4σ step would
@@ -31,7 +32,8 @@ TIME_TOLERANCE_S = 1e-9
 MAX_PUSH_NOISE = 0.25
 #: The settings that set the fastest flight, per kind of configuration (named when it would pass light speed).
 LIGHT_SPEED_SETTINGS = {SailConfig: "push_force_n and beam_cutoff_s",
-                        RigidFlight: "parameter_spread and cutoff_jitter_s"}
+                        RigidFlight: "parameter_spread and cutoff_jitter_s",
+                        UncertainFlight: "parameter_spread, model_uncertainty.power and cutoff_jitter_s"}
 #: Largest ``parameter_spread`` (exclusive): a factor ``1 − s`` must leave every length and mass positive.
 MAX_PARAMETER_SPREAD = 0.5
 

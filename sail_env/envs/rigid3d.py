@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -14,6 +15,7 @@ from sail_env.physics.config import SEED, real_number
 from sail_env.physics.plant3d import RigidFlight
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, SHAPES, RigidSailConfig
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
+from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainFlight
 
 #: ``(x, y, vx, vy, θx, θy, ωx, ωy)``: LightSail-v0's start box on each axis.
 START_HALF_WIDTHS_3D = (5e-3, 5e-3, 0.1, 0.1, 2e-3, 2e-3, 1e-5, 1e-5)
@@ -43,7 +45,8 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
                  sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0, cutoff_jitter_s: float = 0.0, light_delay: bool = False,
-                 parameter_spread: float = 0.0) -> EpisodeSpec:
+                 parameter_spread: float = 0.0,
+                 model_uncertainty: ModelUncertainty | dict[str, float] | None = None) -> EpisodeSpec:
     """The :class:`EpisodeSpec` of the 3D keywords (see :class:`LightSail3DEnv`); a bad value is a
     ``ValueError`` naming its keyword."""
     for name, value, choices in (("sail_shape", sail_shape, SHAPES), ("beam_profile", beam_profile, BEAM_PROFILES)):
@@ -56,7 +59,15 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
     sail = RigidSailConfig(shape=sail_shape, beam_profile=beam_profile, curvature_radius_m=curvature_radius_m,
                            com_distance_m=com_distance_m, absorptivity=absorptivity,
                            reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
-    flight = RigidFlight(sail, spin_rad_s=spin_rad_s, power_control=power_control,
+    if isinstance(model_uncertainty, dict):
+        model_uncertainty = ModelUncertainty(**model_uncertainty)
+    elif not (model_uncertainty is None or isinstance(model_uncertainty, ModelUncertainty)):
+        raise ValueError(f"model_uncertainty must be a ModelUncertainty, a dict of its fields or None, "
+                         f"got {model_uncertainty!r}")
+    # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainFlight.
+    make_flight = RigidFlight if model_uncertainty is None else functools.partial(UncertainFlight,
+                                                                                  uncertainty=model_uncertainty)
+    flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=power_control,
                          relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
                          diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
                          dust_density_m3=dust_density_m3, dust_grain_mass_kg=dust_grain_mass_kg,
@@ -167,6 +178,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``start_half_widths`` | see above | 8 half-widths in state order | the box's corner inside the start limits (``√(x² + y²) ≤ a`` and so on) |
     | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power | ``[0, 0.5)`` |
+    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v0``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``≥ 0`` |
 
     Numbers may be ints, floats or NumPy real scalars; bools (except for the bool keywords and
     ``power_control``), strings and arrays are refused, each with one ``ValueError`` naming the keyword
@@ -194,8 +206,21 @@ class LightSail3DEnv(LightSailEnv):
     constant torque about y and the equilibrium tilts until the force line passes through the CoM;
     it is modelled fixed in the lab frame (with spin it turns at ``Ω`` in truth, see §15).
 
+    ``model_uncertainty`` (``LightSailUncertain-v0``: curvature ±20 %, absorptivity ±50 %, power at the
+    sail ±20 %, a beam offset ±1 cm; docs/physics.md §16) draws per episode what the ground station
+    designs on but cannot know in flight, on top of ``parameter_spread``; nothing of it is observed:
+
+    | drawn (uniform) | acts on | reset cost |
+    |---|---|---|
+    | curvature ``R₀(1 ± c)`` | every radiation term, the push, the inertia | a cubic spline over 9 radii tabled once |
+    | absorptivity ``α₀(1 ± u)`` | every radiation term, the input matrix's rank, the push | exact: the force is linear in ``α`` |
+    | power ``(1 ± p)`` | the push and every stiffness | a row scaling |
+    | beam offset ``± b`` per axis | a constant drive ``B[:, :2] b`` | a column |
+
     ## Version History
 
+    * ``LightSailUncertain-v0`` (lightsail-gym 0.2.0): initial release; ``LightSail3DRealistic-v1``'s
+      keywords plus ``model_uncertainty`` (``sail_env.tasks``, docs/physics.md §16).
     * ``LightSail3DRealistic-v1`` (lightsail-gym 0.2.0): the realistic task in a Gaussian beam of
       waist ``0.8 a`` instead of a flat-top spot of exactly the aperture's size, whose edge on the
       rim made the force kinked at zero offset (the linear window 31 % of the amplitude off the

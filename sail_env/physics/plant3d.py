@@ -107,7 +107,7 @@ class RigidFlight:
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
         for name in ("relativistic", "velocity_terms"):
             object.__setattr__(self, name, boolean(getattr(self, name), name))
-        for field in dataclasses.fields(self)[1:]:
+        for field in dataclasses.fields(RigidFlight)[1:]:  # a subclass checks its own fields
             if field.name in ("relativistic", "velocity_terms"):
                 continue
             value = real_number(getattr(self, field.name), field.name)
@@ -154,9 +154,11 @@ class RigidFlight:
 class RigidParams(PlantParams):
     """:class:`PlantParams` and each draw's scaling ``rows`` (·, 8) of the radiation terms' rows
     (power/mass on ``v̇``, power/inertia on ``ω̇``, no Doppler factor): the model in another spot
-    is ``K + p(t) rows R(s)``."""
+    is ``K + p(t) rows R(s)``; and the draw's ``factors`` (·, n_factors), from which a subclass
+    with more drawn quantities builds ``R(s)``."""
 
     rows: np.ndarray
+    factors: np.ndarray
 
 
 def payload_term(flight: RigidFlight, lin: Linearisation, radiation: np.ndarray,
@@ -189,6 +191,8 @@ class RigidPlant(LinearPlant):
     state_units = ("m", "m", "m/s", "m/s", "rad", "rad", "rad/s", "rad/s")
     spread_fields = SPREAD_FIELDS
     jitter_inputs = (0, 1)
+    #: A constant-term column even without a payload offset (a subclass's drawn constant drive).
+    always_biased = False
     velocity_rows = (VX, VY)
     #: Components limited together at the start, as divergence limits them: ``√(x² + y²)`` and so on.
     radial_pairs = ((X, Y), (VX, VY), (THETA_X, THETA_Y), (OMEGA_X, OMEGA_Y))
@@ -207,7 +211,7 @@ class RigidPlant(LinearPlant):
         self.input_names = INPUT_NAMES + (("beam_power",) if power else ())
         self.input_units = ("m", "m", "rad", "rad") + (("1",) if power else ())
         self.input_ranges = {"1": flight.power_control} if power else {}
-        self.biased = flight.payload_offset_m > 0
+        self.biased = flight.payload_offset_m > 0 or self.always_biased
         # The power input has no column of B: it acts through A (and B) parametrically. The payload's
         # constant term is a last column with its input held at 1; it scales with the push like B.
         m = len(self.input_names)
@@ -228,7 +232,7 @@ class RigidPlant(LinearPlant):
         self.diffracting = math.isfinite(flight.diffraction_length_m)
         if flight.relativistic or flight.ground_jitter_rad > 0 or self.diffracting:
             # The flights of every draw's F/m, to twice the cut-off (the latest a cut-off jitter allows).
-            fastest = (1 + parameter_spread) / (1 - parameter_spread)
+            fastest = self.largest_ratio(parameter_spread)
             self.flights = DrawFlights(self.sail, 2.0 * flight.beam_cutoff_s, flight.relativistic,
                                        flight.diffraction_length_m, fastest)
             if self.diffracting:
@@ -259,8 +263,11 @@ class RigidPlant(LinearPlant):
 
     @property
     def max_acceleration_m_s2(self) -> float:
-        s = self.parameter_spread
-        return self.nominal_acceleration * (1 + s) / (1 - s)
+        return self.nominal_acceleration * self.largest_ratio(self.parameter_spread)
+
+    def largest_ratio(self, parameter_spread: float) -> float:
+        """The largest ``F/m`` of a draw over the nominal one, and of the nominal over a draw's."""
+        return (1 + parameter_spread) / (1 - parameter_spread)
 
     # ------------------------------------------------------------------ parameters
     def _radiation(self, ratio: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -280,18 +287,30 @@ class RigidPlant(LinearPlant):
         near = (scale <= 1.0)[:, None, None]
         return np.where(near, self.radiation, widened), np.where(near, self.radiation_b, b)
 
-    def _matrices(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(A, B, A_rad, rows)`` (k, ·, ·) for factors (k, 3) of mass, inertia and beam power."""
-        mass, inertia, power = factors.T
+    def draw_rows(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each draw's scaling ``rows`` (k, 8) of the radiation terms and its ``F/m`` over the nominal
+        (k,), for factors (k, n_factors) whose first three are mass, inertia and beam power."""
+        mass, inertia, power = factors[:, :3].T
         # Translational rows scale as power / mass, rotational ones as power / inertia; the
         # gyroscopic coupling I_a Ω / I_t does not change when the whole tensor scales.
         rows = np.ones((len(factors), 8))
         rows[:, [RATES[0], RATES[1]]] = (power / mass)[:, None]
         rows[:, [RATES[2], RATES[3]]] = (power / inertia)[:, None]
+        return rows, power / mass
+
+    def draw_radiation(self, factors: np.ndarray, ratio: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The radiation terms (:meth:`_radiation`) of draws with ``factors`` at flight time ``t``: the
+        nominal sail's (mass, inertia and power only scale rows). A subclass that draws the sail's
+        shape or materials gives each draw its own."""
+        return self._radiation(ratio, t)
+
+    def _matrices(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(A, B, A_rad, rows)`` (k, ·, ·) for factors (k, n_factors)."""
+        rows, ratio = self.draw_rows(factors)
         # The window holds the power factor and the spot at its middle (the factor changes by < 1e-3 within it).
         middle = np.full(len(factors), self.config.window_middle_s)
-        window = rows * self.power_factor(power / mass, middle)[:, None]
-        radiation, inputs = self._radiation(power / mass, middle)
+        window = rows * self.power_factor(ratio, middle)[:, None]
+        radiation, inputs = self.draw_radiation(factors, ratio, middle)
         a_rad = window[:, :, None] * radiation
         return self.kinematics + a_rad, window[:, :, None] * inputs, a_rad, rows
 
@@ -321,8 +340,8 @@ class RigidPlant(LinearPlant):
         c = self.config.sail
         limits = np.tile([c.aperture_radius_m, min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)],
                          (len(a), 1))
-        acceleration = self.nominal_acceleration * factors[:, 2] / factors[:, 0]
-        return RigidParams(a, b, step, table, acceleration, limits, growth, shared, rows)
+        acceleration = self.nominal_acceleration * self.draw_rows(factors)[1]
+        return RigidParams(a, b, step, table, acceleration, limits, growth, shared, rows, factors)
 
     # ------------------------------------------------------------------ physics
     def _push(self, u: np.ndarray, push: np.ndarray | None) -> np.ndarray | None:
@@ -410,7 +429,7 @@ class RigidPlant(LinearPlant):
             if self.scales is not None and np.any(self.flights.beam_scale(ratio, t)
                                                   != self.flights.beam_scale(ratio, middle)):
                 rows = p.rows * (scale * self.power_factor(ratio, t))[:, None]
-                radiation, inputs = self._radiation(ratio, t)
+                radiation, inputs = self.draw_radiation(p.factors, ratio, t)
                 a_rad = rows[:, :, None] * radiation
                 return dataclasses.replace(p, a=self.kinematics + a_rad, b=rows[:, :, None] * inputs, shared=False)
             scale = scale * (self.power_factor(ratio, t) / self.power_factor(ratio, middle))

@@ -1,0 +1,236 @@
+"""What a ground station cannot know about its sail: the per-episode model uncertainty of
+``LightSailUncertain-v0`` (docs/physics.md §16).
+
+The station designs on the sail it built and the beam it sends. In flight four things differ from
+that, per episode, and none is observed (sizes: the task's, :data:`TASK_UNCERTAINTY`):
+
+| quantity | draw (uniform) | why it is unknown | source of the size |
+|---|---|---|---|
+| dish curvature ``R`` under load | ``R₀ (1 ± 0.2)`` | a membrane under light pressure billows to the shape its tension and the pressure set (Laplace: ``R = 2T/p``); the tension of a nm-thick film at ~1000 K is known to tens of per cent | Campbell et al. 2022 (sails must billow; the shape is set under load); ±20 % is a **guess** for the tension's uncertainty |
+| absorptivity ``α`` | ``α₀ (1 ± 0.5)`` | manufacturing (film thickness, dopants) and contamination (outgassing, dust) change the absorption of a thin film by factors | Ilic & Atwater 2019 (absorption is set by impurities and thickness); ±50 % is a **guess** |
+| power reaching the sail | ``P₀ (1 ± 0.2)`` | atmospheric transmission (water vapour, aerosols) and the adaptive optics' Strehl ratio of an upward beam, which the station cannot measure at the sail | Lubin 2016 (transmission and Strehl of the ground array); ±20 % is an **estimate** of their variation between nights |
+| a constant beam offset at the sail | ``± 1 cm`` per axis | the calibration of the array's absolute pointing: 2 nrad at the 5,000 km of the window is 1 cm | a **guess** (half the largest beam command) |
+
+They act on top of the realistic task's ±10 % spread of mass, inertia and beam power, which the station
+also does not observe. Every draw is cheap: no surface quadrature runs at a reset.
+
+* The radiation force is linear in the absorptivity at a fixed sail (``ρ = 1 − α``: per unit area
+  the element's force is ``(I/c)(2 cos²θᵢ n + α cos θᵢ (k − 2 cos θᵢ n))``, docs/physics.md §7), so its
+  Jacobian, push and every radiation term of §9 is ``X₀ + α X₁``: two linearisations span every ``α``.
+* The curvature changes the geometry, the push and the inertia: :class:`CurvatureTable` linearises at
+  :data:`CURVATURE_NODES` radii over the draws' range (at ``α = 0`` and ``α = 1``) and interpolates each
+  entry by a cubic spline in ``R`` (tested against a direct linearisation between nodes).
+* The power and the mass scale rows (as the realistic spread's factors do); the beam offset is a
+  constant drive ``B[:, :2] b`` carried in the plant's constant-term column (as the payload's, §15).
+
+The draw's terms enter the model as differences from the nominal sail's, so a draw of all ones is
+exactly the nominal model. In a widened spot (beyond ``L0``) a draw takes the nominal sail's change
+with the spot plus its own difference at ``s = 1`` (second order in the draw times the widening, which
+the task's fastest draws keep below 1.2). The gyroscopic coupling ``I_a Ω / I_t`` is held at the
+nominal dish's: it is 1.05e-2 rad/s at the task's 1 rad/s spin (1.7e-4 of the slow mode, 60.6 rad/s)
+and changes by −1.3 % to +2.5 % over ``R₀ ± 20 %``, 4e-6 of the slow mode.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import scipy.interpolate
+
+from sail_env.physics.linear import sample_uniform
+from sail_env.physics.plant3d import OMEGA_Y, SPREAD_FIELDS, X, RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.body import RigidSail
+from sail_env.physics.rigid3d.config import RigidSailConfig
+from sail_env.physics.rigid3d.damping import damped_linearisation
+from sail_env.physics.rigid3d.scales import cleaned
+
+#: Radii at which :class:`CurvatureTable` linearises (equally spaced over the draws' range).
+CURVATURE_NODES = 9
+#: The quantities :class:`UncertainPlant` draws after the realistic spread's, in draw order.
+UNCERTAIN_FIELDS = ("curvature", "absorptivity", "transmission", "bias_x", "bias_y")
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelUncertainty:
+    """Per-episode uniform draws a ground station cannot observe (module docstring).
+
+    Attributes:
+        curvature: Relative half-width of the dish's radius of curvature, in [0, 0.5].
+        absorptivity: Relative half-width of the absorptivity, in [0, 1] (the draw stays ``≤ 1``).
+        power: Relative half-width of the power that reaches the sail, in [0, 0.5].
+        pointing_bias_m: Half-width [m] of a constant beam offset at the sail on each axis, ``≥ 0``.
+    """
+
+    curvature: float = 0.0
+    absorptivity: float = 0.0
+    power: float = 0.0
+    pointing_bias_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name, high in (("curvature", 0.5), ("absorptivity", 1.0), ("power", 0.5), ("pointing_bias_m", math.inf)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= high:
+                raise ValueError(f"model_uncertainty.{name} must be a real number in [0, {high}], got {value!r}")
+
+    @property
+    def active(self) -> bool:
+        return any(dataclasses.astuple(self))
+
+    def scaled(self, k: float) -> ModelUncertainty:
+        """Every size times ``k`` (the benchmarks' sweep)."""
+        return ModelUncertainty(*(k * v for v in dataclasses.astuple(self)))
+
+
+#: LightSailUncertain-v0's sizes (module docstring's table).
+TASK_UNCERTAINTY = ModelUncertainty(curvature=0.2, absorptivity=0.5, power=0.2, pointing_bias_m=1e-2)
+
+
+@dataclasses.dataclass(frozen=True)
+class UncertainFlight(RigidFlight):
+    """A :class:`RigidFlight` whose sail the station knows only to within ``uncertainty``."""
+
+    uncertainty: ModelUncertainty = ModelUncertainty()
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not isinstance(self.uncertainty, ModelUncertainty):
+            raise ValueError(f"uncertainty must be a ModelUncertainty, got {self.uncertainty!r}")
+        u, sail = self.uncertainty, self.sail
+        if u.curvature and sail.shape != "dish":
+            raise ValueError(f"model_uncertainty.curvature needs the dish (sail_shape 'dish'), got {sail.shape!r}")
+        low_r = sail.curvature_radius_m * (1 - u.curvature)
+        if u.curvature and not low_r > sail.aperture_radius_m:
+            raise ValueError(f"model_uncertainty.curvature must keep R > a = {sail.aperture_radius_m} m, "
+                             f"got R down to {low_r:.4g} m")
+        if sail.absorptivity * (1 + u.absorptivity) > 1.0:
+            raise ValueError(f"model_uncertainty.absorptivity must keep α <= 1, got up to "
+                             f"{sail.absorptivity * (1 + u.absorptivity):.4g}")
+        if sail.reflectivity + sail.absorptivity != 1.0 and u.absorptivity:
+            raise ValueError("model_uncertainty.absorptivity needs reflectivity = 1 - absorptivity (nothing "
+                             "transmitted)")
+        if u.active and self.velocity_terms:
+            raise ValueError("model_uncertainty with velocity_terms is not tabulated: switch one off")
+
+
+class CurvatureTable:
+    """The radiation terms of a dish over its radius of curvature and absorptivity, minus the nominal's.
+
+    At each of :data:`CURVATURE_NODES` radii over ``R₀ (1 ± c)`` the sail is linearised at ``α = 0``
+    and ``α = 1`` (cleaned of round-off, :func:`~sail_env.physics.rigid3d.scales.cleaned`); each
+    quantity is ``X₀(R) + α X₁(R)`` with ``X₀``, ``X₁`` cubic splines in ``R``. Quantities: the
+    radiation part of ``A`` (8, 8), ``B`` (8, 4), the centred push [N] and ``I_t`` [kg m²].
+    """
+
+    def __init__(self, sail: RigidSailConfig, spin: float, curvature: float) -> None:
+        r0 = sail.curvature_radius_m
+        self.radii = r0 * np.linspace(1 - curvature, 1 + curvature, CURVATURE_NODES) if curvature else np.array([r0])
+        values = [[self._linearise(sail.replace(curvature_radius_m=float(r), absorptivity=a, reflectivity=1.0 - a),
+                                   spin) for a in (0.0, 1.0)] for r in self.radii]
+        stacked = [np.stack([[v[a][q] for a in (0, 1)] for v in values]) for q in range(4)]  # (nodes, 2, ...)
+        self._parts = [(s[:, 0], s[:, 1] - s[:, 0]) for s in stacked]
+        self._splines = None if len(self.radii) == 1 else [
+            tuple(scipy.interpolate.CubicSpline(self.radii, part, axis=0) for part in pair) for pair in self._parts]
+
+    @staticmethod
+    def _linearise(config: RigidSailConfig, spin: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+        sail = RigidSail(config)
+        lin = damped_linearisation(sail, spin=spin)
+        radiation, b = cleaned(lin, config.aperture_radius_m)
+        return radiation, b, lin.push_n, sail.inertia[0, 0]
+
+    def at(self, radius: np.ndarray, absorptivity: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(A_rad (k, 8, 8), B (k, 8, 4), push (k,), I_t (k,))`` at radii and absorptivities (k,)."""
+        radius, absorptivity = np.asarray(radius, float), np.asarray(absorptivity, float)
+        if self._splines is None:
+            parts = [(np.repeat(p0, len(radius), axis=0), np.repeat(p1, len(radius), axis=0)) for p0, p1 in self._parts]
+        else:
+            if np.any((radius < self.radii[0] * (1 - 1e-12)) | (radius > self.radii[-1] * (1 + 1e-12))):
+                raise ValueError(f"radius must be in [{self.radii[0]}, {self.radii[-1]}] m, got {radius}")
+            parts = [(s0(radius), s1(radius)) for s0, s1 in self._splines]
+        out = []
+        for p0, p1 in parts:
+            alpha = absorptivity.reshape((-1,) + (1,) * (p0.ndim - 1))
+            out.append(p0 + alpha * p1)
+        return tuple(out)
+
+
+class UncertainPlant(RigidPlant):
+    """:class:`RigidPlant` with the draws of :class:`ModelUncertainty` on top of the parameter spread.
+
+    Factors per episode: mass, inertia and beam power (``1 ± parameter_spread``), then
+    :data:`UNCERTAIN_FIELDS`: curvature, absorptivity and transmission as relative factors, the
+    beam offsets as ``1 + b / pointing_bias_m`` in [0, 2] (one: none). A draw of all ones is the
+    nominal model.
+    """
+
+    spread_fields = SPREAD_FIELDS + UNCERTAIN_FIELDS
+    always_biased = True
+
+    def __init__(self, flight: UncertainFlight, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
+                 push_noise: float = 0.0) -> None:
+        u = flight.uncertainty
+        self.uncertainty = u
+        self.table = CurvatureTable(flight.sail, flight.spin_rad_s, u.curvature)
+        sail = flight.sail
+        self._nominal_terms = self.table.at(np.array([sail.curvature_radius_m]), np.array([sail.absorptivity]))
+        pushes = [self.table.at(np.array([r]), np.array([a]))[2][0] for r in self.table.radii
+                  for a in sail.absorptivity * np.array([1 - u.absorptivity, 1 + u.absorptivity])]
+        self._push_range = np.array([min(pushes), max(pushes)]) / self._nominal_terms[2][0]
+        half = np.array([u.curvature, u.absorptivity, u.power, 1.0, 1.0])
+        self._low, self._high = 1 - half, 1 + half
+        super().__init__(flight, parameter_spread, beam_jitter_m, push_noise)
+        if u.active:
+            self._shared = None
+
+    def largest_ratio(self, parameter_spread: float) -> float:
+        s, p = parameter_spread, self.uncertainty.power
+        fastest = (1 + s) * (1 + p) * self._push_range[1] / (1 - s)
+        slowest = (1 - s) * (1 - p) * self._push_range[0] / (1 + s)
+        return max(fastest, 1.0 / slowest)
+
+    @property
+    def n_draws(self) -> int:
+        return 3 * bool(self.parameter_spread) + len(UNCERTAIN_FIELDS) * self.uncertainty.active
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        s = self.parameter_spread
+        spread = sample_uniform(rng, 1 - s, 1 + s, 3) if s else np.ones(3)
+        extra = sample_uniform(rng, self._low, self._high, len(UNCERTAIN_FIELDS)) if self.uncertainty.active \
+            else np.ones(len(UNCERTAIN_FIELDS))
+        return np.concatenate([spread, extra])
+
+    def params(self, factors: np.ndarray):
+        return self._shared if self._shared is not None else self._build(factors, shared=False)
+
+    def _sail_terms(self, factors: np.ndarray) -> tuple[np.ndarray, ...]:
+        sail = self.config.sail
+        return self.table.at(sail.curvature_radius_m * factors[:, 3], sail.absorptivity * factors[:, 4])
+
+    def draw_rows(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The spread's rows with the transmission on the power; ``F/m`` with the draw's own push."""
+        scaled = factors[:, :3].copy()
+        scaled[:, 2] *= factors[:, 5]
+        rows, ratio = super().draw_rows(scaled)
+        push = self._sail_terms(factors)[2] if self.uncertainty.curvature or self.uncertainty.absorptivity else None
+        return rows, ratio if push is None else ratio * push / self._nominal_terms[2][0]
+
+    def draw_radiation(self, factors: np.ndarray, ratio: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nominal sail's terms (in the spot at ``t``) plus the draw's difference from them at
+        ``s = 1``, with the draw's payload torque and beam offset in the constant column."""
+        base_a, base_b = self._radiation(ratio, t)
+        radiation, b, push, inertia = self._sail_terms(factors)
+        nominal_a, nominal_b, nominal_push, nominal_inertia = (q[0] for q in self._nominal_terms)
+        lin = self.linearisation
+        delta_a = radiation - nominal_a
+        delta_b = np.zeros((len(factors),) + self.radiation_b.shape)
+        delta_b[:, :, :4] = b - nominal_b
+        # The payload's constant term (plant3d.payload_term) of the draw's sail, minus the nominal's.
+        offset = self.config.payload_offset_m * self.config.sail.craft_mass_kg / lin.mass_kg
+        delta_b[:, :, -1] = -offset * delta_a[:, :, X]
+        delta_b[:, OMEGA_Y, -1] += offset * (push / inertia - nominal_push / nominal_inertia)
+        # A constant beam offset acts through the draw's own offset columns of B.
+        bias = (factors[:, 6:8] - 1.0) * self.uncertainty.pointing_bias_m
+        delta_b[:, :, -1] += np.einsum("kij,kj->ki", self.radiation_b[None, :, :2] + delta_b[:, :, :2], bias)
+        return base_a + delta_a, base_b + delta_b
