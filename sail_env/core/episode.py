@@ -170,8 +170,8 @@ class EpisodeCore:
         if self._jittered:
             columns = np.arange(self.noise_steps)
             middles = spec.config.control_start_s + (columns - lag0[:, None] + 0.5) * spec.dt
-            std = plant.jitter_std(params.repeat(self.noise_steps), middles.ravel())
-            state.jitter_std[index] = np.reshape(std, (-1, 1)).reshape(k, -1) if np.ndim(std) else std
+            std = plant.jitter_std(params, middles)  # one read of the (k, steps) grid: no copy of the tables per step
+            state.jitter_std[index] = np.reshape(std, (k, -1)) if np.ndim(std) else std
         # Each environment draws only what it needs alone, whatever the others' pre-control pieces.
         pre_normals = np.zeros((k, int(pre_pieces.max(initial=0)), n_states))
         window = state.normals.shape[1]

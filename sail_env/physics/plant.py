@@ -240,8 +240,8 @@ class LinearPlant:
         return bool(self.beam_jitter_m)
 
     def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
-        """Standard deviation [m] of the beam's landing offset during a step at flight time ``t``
-        (k,): a float, or (k, 1)."""
+        """Standard deviation [m] of the beam's landing offset during a step at flight times ``t``
+        (k,) or a grid (k, s) of each environment's: a float, or (k, 1) (a grid: (k, s, 1))."""
         return self.beam_jitter_m
 
     @single_threaded

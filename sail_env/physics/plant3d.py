@@ -504,11 +504,13 @@ class RigidPlant(LinearPlant):
         return bool(self.beam_jitter_m or self.ground_jitter_rad)
 
     def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
-        """The landing jitter and the ground jitter ``D(t)·δ`` (independent; ``D`` of the draw's flight)."""
+        """The landing jitter and the ground jitter ``D(t)·δ`` (independent; ``D`` of the draw's flight):
+        (k, 1) for times ``t`` (k,), (k, s, 1) for a grid (k, s) of each environment's times."""
         if not self.ground_jitter_rad:
             return self.beam_jitter_m
-        distance = self.flights.distance(p.acceleration / self.nominal_acceleration, t)
-        return np.hypot(self.beam_jitter_m, distance * self.ground_jitter_rad)[:, None]
+        ratio = p.acceleration / self.nominal_acceleration
+        distance = self.flights.distance(ratio.reshape(ratio.shape + (1,) * (np.ndim(t) - 1)), t)
+        return np.hypot(self.beam_jitter_m, distance * self.ground_jitter_rad)[..., None]
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""
