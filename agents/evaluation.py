@@ -189,8 +189,10 @@ def note_coinciding(ax: plt.Axes, curves: dict[str, np.ndarray]) -> None:
                      color="0.3")
 
 
-def save_with_legend_above(fig: plt.Figure, ax: plt.Axes, path: Path) -> None:
-    """The legend in a band above the panels, where it covers no curve; save and close."""
+def save_with_legend_above(fig: plt.Figure, ax: plt.Axes, path: Path, env_id: str) -> None:
+    """The legend in a band above the panels, where it covers no curve, the env's id in the bottom
+    corner (a plot names what it shows); save and close."""
+    fig.text(0.005, 0.005, env_id, fontsize=7, color="0.4", ha="left", va="bottom")
     handles, labels = ax.get_legend_handles_labels()
     fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 3), fontsize=8, frameon=False)
     rows = -(-len(labels) // 3)
@@ -199,16 +201,21 @@ def save_with_legend_above(fig: plt.Figure, ax: plt.Axes, path: Path) -> None:
     plt.close(fig)
 
 
-def plot_pointing(results: dict[str, list[dict[str, Any]]], path: Path) -> None:
-    """Empirical CDF of terminal pointing per agent, log axis, 10 nrad line (diverged: never reached)."""
+def plot_pointing(results: dict[str, list[dict[str, Any]]], path: Path, env_id: str) -> None:
+    """Empirical CDF of terminal pointing per agent, log axis, 10 nrad line (diverged: never reached);
+    agents whose curves lie on top of each other (in log10) are named above the panel."""
     fig, ax = plt.subplots(figsize=(6.4, 4))
+    curves = {}
     for name, style in agent_styles(results).items():
         values = np.sort([e["terminal_pointing_rad"] for e in results[name]])
         ax.step(values, np.arange(1, len(values) + 1) / len(values), where="post",
                 **{k: v for k, v in style.items() if k not in ("marker", "ms", "mfc", "mew")})
+        with np.errstate(divide="ignore"):
+            curves[name] = np.log10(values)
+    note_coinciding(ax, curves)
     ax.axvline(POINTING_TOLERANCE_RAD, color="k", ls="--", lw=1, label="10 nrad")
     ax.set(xscale="log", xlabel="terminal pointing [rad]", ylabel="fraction of episodes ≤ x", ylim=(0, 1.02))
-    save_with_legend_above(fig, ax, path)
+    save_with_legend_above(fig, ax, path, env_id)
 
 
 #: Markers per curve of a trajectory plot (they tell the agents apart; the line is the data).
@@ -223,13 +230,20 @@ def marker_steps(steps: int, curve: int) -> list[int]:
     return sorted(rng.choice(steps, size=min(TRAJECTORY_MARKERS, steps), replace=False).tolist())
 
 
-def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path) -> None:
-    """X, θ and the beam input over the control window, every agent from the same start.
+#: The trajectory plot's panels: the planar model's, and the 3D model's x axis (its offset x, the tilt
+#: θy that moves it, the beam inputs on x).
+TRAJECTORY_LABELS = {False: ("X [mm]", "θ [mrad]", "beam offset d [mm]", "beam tilt ψ [mrad]"),
+                     True: ("x [mm]", "θy [mrad]", "beam offset on x [mm]", "beam tilt on x [mrad]")}
+
+
+def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path, env_id: str, three_d: bool) -> None:
+    """X, θ and the beam input over the control window, every agent from the same start (in 3D:
+    the x axis).
 
     The beam offset and tilt are in the units of X and θ: they act through ``X − d`` and ``θ − ψ``.
     """
     fig, axes = plt.subplots(4, 1, figsize=(6.4, 7.8), sharex=True)
-    labels = ("X [mm]", "θ [mrad]", "beam offset d [mm]", "beam tilt ψ [mrad]")
+    labels = TRAJECTORY_LABELS[three_d]
     styles = agent_styles(trajectories)
     for k, (ax, label) in enumerate(zip(axes, labels)):
         curves = {name: steps[:, k + 1] * 1e3 for name, steps in trajectories.items()}
@@ -237,12 +251,14 @@ def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path) -> None:
             ax.plot(trajectories[name][:, 0], curve, markevery=marker_steps(len(curve), i), **styles[name])
         ax.set_ylabel(label, fontsize=8)
         note_coinciding(ax, curves)
-    axes[-1].set_xlabel("flight time [s]")
-    save_with_legend_above(fig, axes[0], path)
+    axes[-1].set_xlabel("flight time [s]" + (" (the x axis of the 3D sail)" if three_d else ""))
+    save_with_legend_above(fig, axes[0], path, env_id)
 
 
-def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, bins: int = 8) -> None:
-    """Success rate in bins of the tilt |θ| at the start of control (at least 10 episodes a bin)."""
+def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, env_id: str, three_d: bool,
+                         bins: int = 8) -> None:
+    """Success rate in bins of the tilt's size at the start of control (planar ``|θ|``, 3D the total
+    tilt ``√(θx² + θy²)``; at least 10 episodes a bin)."""
     tilts = np.array([start_tilt(e) for e in next(iter(results.values()))]) * 1e3
     bins = max(1, min(bins, len(tilts) // 10))
     edges = np.quantile(tilts, np.linspace(0, 1, bins + 1))
@@ -255,8 +271,10 @@ def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, b
         rates[name] = np.array([success[which == b].mean() for b in range(bins)])
         ax.plot(centres, rates[name], **style)
     note_coinciding(ax, rates)
-    ax.set(xlabel="|θ| at start of control [mrad] (bins of equal count)", ylabel="success rate", ylim=(-0.02, 1.05))
-    save_with_legend_above(fig, ax, path)
+    tilt = "total tilt √(θx² + θy²)" if three_d else "|θ|"
+    ax.set(xlabel=f"{tilt} at start of control [mrad] (bins of equal count)", ylabel="success rate",
+           ylim=(-0.02, 1.05))
+    save_with_legend_above(fig, ax, path, env_id)
 
 
 # ---------------------------------------------------------------------- report
@@ -277,9 +295,10 @@ def write_report(out: Path, env_id: str, config: dict[str, Any], results: dict[s
             for i, episode in enumerate(episodes):
                 writer.writerow({"agent": name, "episode": i, **episode})
 
-    plot_pointing(results, out / "pointing.png")
-    plot_trajectories(trajectories, out / "trajectories.png")
-    plot_success_vs_tilt(results, out / "success_vs_tilt.png")
+    three_d = "theta_x0" in next(iter(results.values()))[0]
+    plot_pointing(results, out / "pointing.png", env_id)
+    plot_trajectories(trajectories, out / "trajectories.png", env_id, three_d)
+    plot_success_vs_tilt(results, out / "success_vs_tilt.png", env_id, three_d)
     (out / "report.md").write_text(markdown(env_id, config, summary))
     return report
 

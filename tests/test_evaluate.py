@@ -313,3 +313,27 @@ def test_trajectory_markers_are_not_a_regular_sampling_that_aliases_the_oscillat
         assert len(steps) == TRAJECTORY_MARKERS and 0 <= steps[0] and steps[-1] <= 200
         assert len(set(np.diff(steps))) > TRAJECTORY_MARKERS // 2  # no regular stride
     assert marker_steps(201, 0) != marker_steps(201, 1) and marker_steps(3, 0) == [0, 1, 2]
+
+
+def test_the_plots_name_their_env_the_3d_axis_and_coinciding_curves(tmp_path: Path, monkeypatch) -> None:
+    """Issue 20: the 3D plots showed the planar labels, no plot named its env, and the pointing plot
+    never said that LQR and LQG coincide on LightSail3D-v0."""
+    import matplotlib.pyplot as plt
+
+    from agents import evaluation
+
+    figures = []
+    monkeypatch.setattr(plt.Figure, "savefig", lambda fig, *args, **kwargs: figures.append(fig))
+    monkeypatch.setattr(plt, "close", lambda fig=None: None)
+    steps = np.column_stack([np.linspace(0.0, 1.0, 50), *np.random.default_rng(0).normal(size=(4, 50))])
+    evaluation.plot_trajectories({"lqr": steps, "lqg": steps}, tmp_path / "t.png", "LightSail3D-v0", three_d=True)
+    episodes = [{"terminal_pointing_rad": p, "success": p < 1e-8, "theta_x0": 1e-3, "theta_y0": 0.0}
+                for p in (1e-12, 2e-12, 1e-7)]
+    evaluation.plot_pointing({"lqr": episodes, "lqg": episodes}, tmp_path / "p.png", "LightSail3D-v0")
+    evaluation.plot_success_vs_tilt({"lqr": episodes}, tmp_path / "s.png", "LightSail3D-v0", three_d=True)
+    trajectory, pointing, tilt = figures
+    assert [ax.get_ylabel() for ax in trajectory.axes][:2] == ["x [mm]", "θy [mrad]"]
+    assert "3D" in trajectory.axes[-1].get_xlabel()
+    assert all("LightSail3D-v0" in [t.get_text() for t in fig.texts] for fig in figures)
+    assert "lqr = lqg" in pointing.axes[0].get_title(loc="right")
+    assert "total tilt" in tilt.axes[0].get_xlabel()
