@@ -183,7 +183,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         super().reset(seed=reset_seeds(seed, 1)[0])
         self.core.reset(_ONE, [self.np_random], reset_states(options, self.episode_spec, 1, arrays=False))
         if self.render_mode is not None:
-            self._trajectory = [(self._time(), self.state.x[0].copy(), np.zeros(2))]
+            self._trajectory = [(self._time(), self.state.x[0].copy(), np.zeros(self.episode_spec.plant.n_inputs))]
         return self.core.observe()[0], self._info()
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -223,8 +223,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
             return None
         if self._renderer is None:
             self._renderer = SailRenderer(self.render_mode, self.metadata["render_fps"])
-        spec = self.episode_spec
-        return self._renderer.draw(spec.config, self._trajectory, float(self.state.cutoff_s[0]), spec.action_scale)
+        return self._renderer.draw(self.episode_spec, self._trajectory, float(self.state.speed_at_cutoff[0]))
 
     def close(self) -> None:
         if self._renderer is not None:

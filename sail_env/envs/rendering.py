@@ -1,11 +1,11 @@
-"""Frames of a planar episode: the sail on its beam, and the trajectory so far."""
+"""Frames of an episode: the sail on its beam, and the flight direction so far (a 3D sail is drawn
+along its x axis: its offset x, the tilt θy that moves it, the beam inputs on x)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from sail_env.physics.config import SailConfig
-from sail_env.physics.planar import OMEGA, THETA, VX, X
+from sail_env.core.spec import EpisodeSpec
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 FRAME_SIZE_IN = (8.0, 4.0)
@@ -32,24 +32,30 @@ class SailRenderer:
         self.render_mode = render_mode
         self.pause_s = 1.0 / fps
 
-    def draw(self, config: SailConfig, trajectory: list[tuple[float, np.ndarray, np.ndarray]],
-             cutoff_s: float, action_scale: np.ndarray) -> np.ndarray | None:
+    def draw(self, spec: EpisodeSpec, trajectory: list[tuple[float, np.ndarray, np.ndarray]],
+             speed_at_cutoff: float) -> np.ndarray | None:
+        """A frame: the sail now (left) and its flight direction if the beam were cut, over the
+        control window so far (right). ``trajectory`` holds ``(t, state, applied input)`` per step."""
+        view = AxisView(spec)
         fig = self.figure
         fig.clear()
         sail_ax, track_ax = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1.4]})
         t, state, beam_input = trajectory[-1]
-        self._draw_sail(sail_ax, config, state, beam_input, action_scale)
+        self._draw_sail(sail_ax, view, state, beam_input)
         times = np.array([p[0] for p in trajectory])
-        states = np.array([p[1] for p in trajectory])
-        vz = config.axial_acceleration_m_s2 * cutoff_s
-        track_ax.semilogy(times, np.maximum(np.abs(states[:, VX]) / vz, 1e-13), lw=1, label="|V⊥|/Vz")
+        pointing = np.array([np.hypot.reduce(p[1][view.velocities]) for p in trajectory]) / speed_at_cutoff
+        track_ax.semilogy(times, np.maximum(pointing, 1e-13), lw=1, marker="o", markevery=[-1], ms=3,
+                          label="|V⊥|/Vz")
         track_ax.axhline(POINTING_TOLERANCE_RAD, color="tab:red", ls="--", lw=1, label="10 nrad")
+        start = spec.config.control_start_s
+        track_ax.set_xlim(start, start + spec.n_steps * spec.dt)  # the whole window, from the first frame on
         track_ax.set_xlabel("flight time [s]")
         track_ax.set_ylabel("flight direction if cut now [rad]")
         track_ax.set_ylim(1e-12, 1e-5)
         track_ax.legend(loc="upper right", fontsize=8)
-        track_ax.set_title(f"t = {t:.3f} s,  X = {state[X] * 1e3:+.2f} mm,  θ = {state[THETA] * 1e3:+.3f} mrad,"
-                           f"  ω = {state[OMEGA]:+.1e}", fontsize=8)
+        track_ax.set_title(f"t = {t:.3f} s,  {view.x_name} = {state[view.x] * 1e3:+.2f} mm,  "
+                           f"{view.tilt_name} = {state[view.tilt] * 1e3:+.3f} mrad,  "
+                           f"{view.rate_name} = {state[view.rate]:+.1e} rad/s", fontsize=8)
         fig.tight_layout()
         fig.canvas.draw()
         if self.render_mode == "human":
@@ -60,23 +66,22 @@ class SailRenderer:
         return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
 
     @staticmethod
-    def _draw_sail(ax, config: SailConfig, state: np.ndarray, beam_input: np.ndarray,
-                   action_scale: np.ndarray) -> None:
-        """The sail, struts and payload around the CoM, lateral motion exaggerated to be seen."""
-        a, lc, strut = config.aperture_radius_m, config.com_distance_m, config.strut_length_m
-        exaggerate_x = 0.25 * a / max(2e-2, abs(state[X]), action_scale[0])
-        exaggerate_theta = 0.2 / max(2e-3, abs(state[THETA]), action_scale[1])
-        x0, theta = state[X] * exaggerate_x, state[THETA] * exaggerate_theta
+    def _draw_sail(ax, view: AxisView, state: np.ndarray, beam_input: np.ndarray) -> None:
+        """The sail, struts and payload around the CoM, lateral motion exaggerated to be seen; the
+        panel widens to keep the whole drawing inside it."""
+        a, lc, strut, r = view.aperture_m, view.com_distance_m, view.strut_length_m, view.curvature_radius_m
+        exaggerate_x = 0.25 * a / max(2e-2, abs(state[view.x]), view.offset_scale)
+        exaggerate_theta = 0.2 / max(2e-3, abs(state[view.tilt]), view.tilt_scale)
+        x0, theta = state[view.x] * exaggerate_x, state[view.tilt] * exaggerate_theta
         axis = np.array([np.sin(theta), np.cos(theta)])  # (lateral, along the beam)
         side = np.array([np.cos(theta), -np.sin(theta)])
         com = np.array([x0, 0.0])
         vertex = com + lc * axis
-        r = config.curvature_radius_m
         s = np.linspace(-a, a, 41)
         sag = 0.0 if np.isinf(r) else r - np.sqrt(r**2 - s**2)
         sail = vertex + np.outer(s, side) - np.outer(sag, axis)
         payload = com - (strut - lc) * axis
-        beam_x = beam_input[0] * exaggerate_x
+        beam_x = beam_input[view.offset] * exaggerate_x
         ax.axvspan(beam_x - a, beam_x + a, color="gold", alpha=0.25, lw=0)
         ax.axvline(0.0, color="grey", lw=0.8, ls=":")
         ax.plot(sail[:, 0], sail[:, 1], color="tab:blue", lw=2)
@@ -84,10 +89,11 @@ class SailRenderer:
             ax.plot([end[0], payload[0]], [end[1], payload[1]], color="0.4", lw=0.8)
         ax.plot(*payload, "s", color="k", ms=5)
         ax.plot(*com, "o", color="tab:orange", ms=4)
-        ax.set_xlim(-2 * a, 2 * a)
+        reach = max(2 * a, 1.1 * float(np.abs(np.concatenate([sail[:, 0], [payload[0], beam_x - a, beam_x + a]])).max()))
+        ax.set_xlim(-reach, reach)
         ax.set_ylim(-(strut - lc) - 2, lc + 2)
         ax.set_aspect("equal")
-        ax.set_title("sail on its beam (lateral motion exaggerated)", fontsize=8)
+        ax.set_title(f"sail on its beam{view.axis_note} (lateral motion exaggerated)", fontsize=8)
         ax.set_xticks([])
         ax.set_yticks([])
 
@@ -96,3 +102,25 @@ class SailRenderer:
             import matplotlib.pyplot as plt
 
             plt.close(self.figure)
+
+
+class AxisView:
+    """What a frame draws of a task's sail: its geometry and, by name, the state's and inputs' entries
+    on one lateral axis (the planar model's, or the 3D model's x axis)."""
+
+    def __init__(self, spec: EpisodeSpec) -> None:
+        plant, config = spec.plant, spec.config
+        sail = getattr(config, "sail", config)  # a RigidFlight's RigidSailConfig, or the SailConfig
+        self.aperture_m, self.com_distance_m = sail.aperture_radius_m, sail.com_distance_m
+        self.strut_length_m = sail.strut_length_m
+        self.curvature_radius_m = np.inf if getattr(sail, "shape", "dish") == "flat" else sail.curvature_radius_m
+        names, inputs = plant.state_names, plant.input_names
+        three_d = "theta_y" in names
+        self.axis_note = " (x axis)" if three_d else ""
+        self.x_name, self.tilt_name, self.rate_name = ("x", "θy", "ωy") if three_d else ("X", "θ", "ω")
+        self.x = names.index("x")
+        self.tilt, self.rate = names.index("theta_y" if three_d else "theta"), names.index("omega_y" if three_d else "omega")
+        self.velocities = [names.index(n) for n in ("vx", "vy") if n in names]
+        self.offset = inputs.index("beam_offset_x" if three_d else "beam_offset")
+        tilt_input = inputs.index("beam_tilt_x" if three_d else "beam_tilt")
+        self.offset_scale, self.tilt_scale = spec.action_scale[self.offset], spec.action_scale[tilt_input]

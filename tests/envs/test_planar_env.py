@@ -248,3 +248,34 @@ def test_episode_spec_defaults_are_those_of_the_default_env():
     assert default.config == env_spec.config == SEED and default.disturbances == env_spec.disturbances
     np.testing.assert_array_equal(default.action_scale, env_spec.action_scale)
     np.testing.assert_array_equal(default.start_half_widths, env_spec.start_half_widths)
+
+
+@pytest.mark.parametrize("env_id", ["LightSail-v0", "LightSail3D-v0"])
+def test_frames_show_the_window_from_reset_and_keep_the_sail_in_its_panel(env_id, monkeypatch):
+    """Issue 20: the 3D envs had no rendering; the frame at reset had an empty panel with a
+    meaningless time axis, ω had no unit, and at X = −44 mm the sail was drawn outside its panel."""
+    from sail_env.envs import rendering
+
+    drawn, original = [], rendering.SailRenderer._draw_sail
+
+    def draw_sail(ax, view, state, beam_input) -> None:
+        original(ax, view, state, beam_input)
+        drawn.append(ax)
+    monkeypatch.setattr(rendering.SailRenderer, "_draw_sail", staticmethod(draw_sail))
+    env = gym.make(env_id, render_mode="rgb_array")
+    spec = env.unwrapped.episode_spec
+    start = {"x": -0.044, "theta" if "theta" in spec.plant.state_names else "theta_y": 1.5e-3}
+    env.reset(seed=0, options={"initial_state": start})
+    frame = env.render()
+    assert frame.ndim == 3 and frame.shape[2] == 3 and frame.std() > 0
+    figure = env.unwrapped._renderer.figure
+    track = figure.axes[1]
+    window = (spec.config.control_start_s, spec.config.control_start_s + spec.n_steps * spec.dt)
+    assert track.get_xlim() == pytest.approx(window) and "rad/s" in track.get_title()
+    sail_panel = drawn[-1]
+    low, high = sail_panel.get_xlim()
+    for line in sail_panel.get_lines():
+        assert np.all((low <= line.get_xdata()) & (line.get_xdata() <= high))
+    env.step(env.action_space.sample())
+    assert env.render().shape == frame.shape
+    env.close()
