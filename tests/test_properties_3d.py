@@ -1,7 +1,8 @@
 """A standing guard for the 3D env (issue 20): every keyword drawn across its documented range (shapes x
 beams x each keyword from zero to its limit), whole episodes with random actions. Only a ValueError at
 construction is allowed; every observation is finite and inside the space, every reward finite, the
-episode ends within the control window, and the same seed plays the same numbers."""
+episode ends within the control window, the same seed plays the same numbers, and a vector env's
+environment plays the single env's episode of its seed."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sail_env.envs.rigid3d import LightSail3DEnv
+from sail_env.envs.rigid3d import LightSail3DEnv, rigid3d_vector_env
 from sail_env.physics.config import SEED
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, MAX_CURVATURE_OVER_APERTURE, SHAPES, RigidSailConfig
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
@@ -87,7 +88,26 @@ def check_case(case: dict) -> str:
     first, again = play(env, seed, actions), play(env, seed, actions)
     np.testing.assert_array_equal(np.array(first[0]), np.array(again[0]))
     assert first[1] == again[1] and first[2]["terminal_pointing_rad"] == again[2]["terminal_pointing_rad"]
+    check_vector_plays_the_single_episode(kwargs, seed, actions, first)
     return "diverged" if first[2]["diverged"] else "scored"
+
+
+def check_vector_plays_the_single_episode(kwargs: dict, seed: int, actions: np.ndarray,
+                                          single: tuple[list[np.ndarray], list[float], dict]) -> None:
+    """Environment 1 of a vector env reset with ``seed − 1`` plays the single env's episode (seeded
+    ``seed``) to the last bit, whatever environment 0 does beside it."""
+    envs = rigid3d_vector_env(num_envs=2, **kwargs)
+    obs, _ = envs.reset(seed=seed - 1)
+    observations, rewards = [obs[1]], []
+    for step, action in enumerate(actions[:len(single[1])]):
+        obs, reward, terminated, _, info = envs.step(np.stack([-action, action]))
+        rewards.append(reward[1])
+        observations.append(info["final_obs"][1] if terminated[1] else obs[1])
+        if terminated[1]:
+            assert info["final_info"]["terminal_pointing_rad"][1] == single[2]["terminal_pointing_rad"]
+            break
+    np.testing.assert_array_equal(np.array(observations), np.array(single[0]))
+    assert rewards == single[1]
 
 
 @settings(max_examples=40, deadline=None, derandomize=True)
