@@ -219,7 +219,13 @@ class LightSail3DEnv(LightSailEnv):
 
     ## Version History
 
-    * ``LightSailUncertain-v0`` (lightsail-gym 0.2.0): initial release; ``LightSail3DRealistic-v1``'s
+    * 0.3.0, every id (no new version: no result changes): the window's step is compiled
+      (observations bit for bit, rewards to 1e-11); the axial flight of the relativistic and
+      diffracting tasks (``LightSail3DRealistic-v0``/``-v1``) is read from a table 1e-12 from a tight
+      integration instead of an rtol-1e-10 ODE solution that was 2e-10 off, which moves their
+      episodes' terminal pointing by at most 1e-8 relative (the same seed now gives the same
+      numbers under two OpenBLAS kernels to 4e-8 instead of 1e-6; docs/physics.md §3, §14).
+    * ``LightSailUncertain-v0`` (lightsail-gym 0.3.0): initial release; ``LightSail3DRealistic-v1``'s
       keywords plus ``model_uncertainty`` (``sail_env.tasks``, docs/physics.md §16).
     * ``LightSail3DRealistic-v1`` (lightsail-gym 0.2.0): the realistic task in a Gaussian beam of
       waist ``0.8 a`` instead of a flat-top spot of exactly the aperture's size, whose edge on the
