@@ -135,13 +135,17 @@ def start_worker(storage: str, cwd: Path, log: Path, argv: list[str]) -> subproc
                             env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=log.open("w"), stderr=subprocess.STDOUT)
 
 
+#: The learner cells' budget in the two-worker test (whole rollouts of 8 envs x 256 steps).
+BUDGET_STEPS = 12288
+
+
 @pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
 def test_two_workers_run_every_cell_once_and_finish_a_killed_workers_cell(backend: str, tmp_path: Path,
                                                                           request: pytest.FixtureRequest) -> None:
     storage = f"sqlite:///{tmp_path}/grid.db" if backend == "sqlite" else request.getfixturevalue("postgresql")
     study_name = f"two-workers-{backend}-{os.getpid()}"
     argv = ["--study", study_name, "--runs-dir", str(tmp_path / "runs"), "--envs", "LightSail-v0", "--algos", "ppo",
-            "--seeds", "0", "1", "2", "--default-seeds", "--timesteps", "12288", "--eval-freq", "0", "--save-freq", "2048",
+            "--seeds", "0", "1", "2", "--default-seeds", "--timesteps", str(BUDGET_STEPS), "--eval-freq", "0", "--save-freq", "2048",
             "--heartbeat", "1", "--grace", "3"]
     workers = [start_worker(storage, tmp_path, tmp_path / f"worker{i}.log", argv) for i in range(2)]
     # Kill whichever worker is first seen in a learner cell that has a complete checkpoint (its
@@ -150,7 +154,11 @@ def test_two_workers_run_every_cell_once_and_finish_a_killed_workers_cell(backen
     while victim is None and time.monotonic() < deadline:
         for i, worker in enumerate(workers):
             started = re.findall(r"(\S+-ppo-tuned-\d): started .* -> (\S+)", (tmp_path / f"worker{i}.log").read_text())
-            if started and list(Path(started[-1][1]).glob("checkpoints/rl_model_vecnormalize_*_steps.pkl")):
+            # A checkpoint short of the budget: the cell is still training (the compiled env trains a
+            # cell in seconds; a worker killed after its last checkpoint had already completed it).
+            saved = [int(p.stem.split("_")[-2]) for p in Path(started[-1][1]).glob(
+                "checkpoints/rl_model_vecnormalize_*_steps.pkl")] if started else []
+            if saved and max(saved) < BUDGET_STEPS:
                 victim, (killed_worker, survivor) = started[-1][0], (workers[i], workers[1 - i])
                 killed_worker.send_signal(signal.SIGKILL)
                 break
