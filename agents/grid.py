@@ -342,7 +342,7 @@ def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str,
 def work(storage: RDBStorage, study: optuna.Study, runs_dir: Path, max_cells: int | None, wait: bool) -> int:
     """Take cells until none is waiting (and, with ``wait``, none is running elsewhere)."""
     settings, done = study.user_attrs["settings"], 0
-    while max_cells is None or done < max_cells:
+    while (max_cells is None or done < max_cells) and training.stop_requested() is None:
         trial = claim(storage, study)
         if trial is None:
             running = study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))

@@ -406,9 +406,9 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         model.tensorboard_log = str(run_dir / "tb")
-        callbacks: list[BaseCallback] = []
+        callbacks: list[BaseCallback] = [StopOnSignal()]
         if config["save_freq"] > 0:
-            callbacks.append(UninterruptedCheckpoints(max(config["save_freq"] // n_envs, 1), str(run_dir / "checkpoints"),
+            callbacks.append(CheckpointCallback(max(config["save_freq"] // n_envs, 1), str(run_dir / "checkpoints"),
                                                 CHECKPOINT_PREFIX, save_replay_buffer=True, save_vecnormalize=True))
         if config["eval_freq"] > 0:
             setup.eval_env.seed(seed + EVAL_SEED_OFFSET)
@@ -427,6 +427,8 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
         try:
             model.learn(total - model.num_timesteps, callback=callbacks, tb_log_name="tb",
                         reset_num_timesteps=setup.resumed_from is None, progress_bar=progress_bar)
+            if stop_requested() is not None:
+                status = "interrupted"
         except KeyboardInterrupt:
             status = "interrupted"
         except BaseException:
@@ -511,36 +513,40 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-#: Set while a checkpoint is written; a signal then only records itself (see :func:`stop_on_signals`).
-_saving = {"active": False, "pending": None}
+#: The signal that asked the process to stop (see :func:`stop_on_signals`), or None.
+_stop: dict[str, str | None] = {"requested": None}
 
 
-class UninterruptedCheckpoints(CheckpointCallback):
-    """SB3's checkpoints, each written whole: a Ctrl-C or SIGTERM that arrives during the write is
-    raised after it (raised inside, it broke torch's zip writer and the run ended with an error)."""
+def stop_requested() -> str | None:
+    """The name of the signal that asked this process to stop, or None."""
+    return _stop["requested"]
+
+
+class StopOnSignal(BaseCallback):
+    """Ends ``model.learn`` at the next env step once a signal asked to stop.
+
+    The signal handler itself never raises on the first signal: raised wherever Python happens
+    to be, a KeyboardInterrupt broke torch's zip writer in the middle of a checkpoint, and one
+    that landed inside ``loss.backward`` ended a tuning trial with a RuntimeError.
+    """
 
     def _on_step(self) -> bool:
-        _saving["active"] = True
-        try:
-            return super()._on_step()
-        finally:
-            _saving["active"] = False
-            pending, _saving["pending"] = _saving["pending"], None
-            if pending is not None:
-                raise KeyboardInterrupt(pending)
+        return _stop["requested"] is None
 
 
 def stop_on_signals() -> None:
-    """SIGINT and SIGTERM (a scheduler's pre-emption) both save a checkpoint and stop.
+    """SIGINT and SIGTERM (a scheduler's pre-emption) both save a checkpoint and stop, at the
+    next env step; a second signal aborts at once (KeyboardInterrupt, no checkpoint promised).
 
     A shell without job control starts background jobs with SIGINT ignored, and Python
     then never raises KeyboardInterrupt: restore it explicitly.
     """
     def interrupt(signum: int, frame: object) -> None:
-        if _saving["active"]:
-            _saving["pending"] = signal.Signals(signum).name
-            return
-        raise KeyboardInterrupt(signal.Signals(signum).name)
+        name = signal.Signals(signum).name
+        if _stop["requested"] is not None:
+            raise KeyboardInterrupt(name)
+        _stop["requested"] = name
+        print(f"{name}: stopping at the next step with a checkpoint (again to abort)", file=sys.stderr, flush=True)
 
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, interrupt)

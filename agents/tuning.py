@@ -21,15 +21,16 @@ from __future__ import annotations
 import sys
 import warnings
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 import optuna
 import yaml
 from optuna.study import MaxTrialsCallback
-from optuna.trial import TrialState
+from optuna.trial import FrozenTrial, TrialState
 
 from agents import cli, grid, training
-from agents.sb3 import ALGOS, load_hyperparams
+from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, normalize_kwargs
 from sail_env.tasks import TASKS
 
 ACTIVATIONS = {"tanh": "nn.Tanh", "relu": "nn.ReLU"}
@@ -84,12 +85,18 @@ def trial_config(trial: optuna.Trial, algo: str, env_id: str, settings: dict[str
     hp = {"policy": "MlpPolicy", "n_timesteps": settings["timesteps"], **SAMPLERS[algo](trial)}
     return {"algo": algo, "env": env_id, "seed": settings["seed"], "vec_env": "batched",
             "eval_freq": settings["eval_freq"], "eval_episodes": settings["eval_episodes"],
-            "save_freq": settings["timesteps"], "hyperparams_file": f"(optuna trial {trial.number})",
+            "save_freq": settings["eval_freq"], "hyperparams_file": f"(optuna trial {trial.number})",
             "hyperparams": hp}
 
 
-def objective(algo: str, env_id: str, settings: dict[str, Any], runs_dir: Path):
-    """The objective: train one sampled configuration; its best evaluation success rate."""
+def objective(algo: str, env_id: str, settings: dict[str, Any], runs_dir: Path,
+              retry: Callable[[optuna.Study, FrozenTrial], None]):
+    """The objective: train one sampled configuration; its best evaluation success rate.
+
+    A trial stopped by a signal, or failed as stale when its worker died, is queued again with
+    its parameters and folder (the storage's retry callback), and the retry resumes that
+    folder's newest checkpoint instead of starting over.
+    """
     def run(trial: optuna.Trial) -> float:
         config = trial_config(trial, algo, env_id, settings)
         trial.set_user_attr("hyperparams", config["hyperparams"])
@@ -99,13 +106,35 @@ def objective(algo: str, env_id: str, settings: dict[str, Any], runs_dir: Path):
             if trial.should_prune():
                 raise optuna.TrialPruned(f"success {success_rate:.1%} at {timesteps} steps")
 
-        # A fresh folder: one left by another study of this name (in another storage) holds its
-        # best_model.json, which this trial would read as its own score.
-        run_dir = training.fresh_dir(runs_dir / f"trial-{trial.number}")
+        run_dir, checkpoint = retried_folder(trial, config)
+        if checkpoint is not None and training.checkpoint_steps(checkpoint) >= training.whole_rollouts(
+                algo, settings["timesteps"], config["hyperparams"]):
+            return training.read_best(run_dir)["success_rate"]  # it had finished when its worker died
+        if run_dir is None:
+            # A fresh folder: one left by another study of this name (in another storage) holds its
+            # best_model.json, which this trial would read as its own score.
+            run_dir = training.fresh_dir(runs_dir / f"trial-{trial.number}")
         trial.set_user_attr("run_dir", str(run_dir))
-        training.train(config, run_dir, f"python -m agents.tuning (trial {trial.number})", on_evaluation=report)
+        session = training.train(config, run_dir, f"python -m agents.tuning (trial {trial.number})",
+                                 resume=checkpoint is not None, on_evaluation=report)
+        if session["status"] != "finished":  # stopped by a signal: queue it again, then stop
+            retry(trial.study, trial.study.get_trials(deepcopy=False)[trial.number])
+            raise KeyboardInterrupt(session["status"])
         return training.read_best(run_dir)["success_rate"]
     return run
+
+
+def retried_folder(trial: optuna.Trial, config: dict[str, Any]) -> tuple[Path | None, Path | None]:
+    """The folder a retried trial continues (its original's, inherited with its user attributes)
+    and the checkpoint it resumes from (None: start the folder afresh); (None, None) for a new trial."""
+    inherited = trial.user_attrs.get("run_dir")
+    if inherited is None or not Path(inherited).is_dir():
+        return None, None
+    normalized = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
+    try:
+        return Path(inherited), training.resumable_checkpoint(Path(inherited), normalized)
+    except ModelLoadError:  # killed before its first checkpoint
+        return training.fresh_dir(Path(inherited)), None
 
 
 def best_yaml(study: optuna.Study, env_id: str) -> str:
@@ -119,12 +148,16 @@ def best_yaml(study: optuna.Study, env_id: str) -> str:
 def tune(algo: str, env_id: str, storage: str, study_name: str, trials: int, settings: dict[str, Any],
          runs_dir: Path, pruner: optuna.pruners.BasePruner | None = None) -> optuna.Study:
     """Run trials until the study has ``trials`` finished ones (over all workers)."""
-    study = optuna.create_study(storage=grid.open_storage(storage, heartbeat=60, grace=300), study_name=study_name,
+    rdb = grid.open_storage(storage, heartbeat=60, grace=300)
+    study = optuna.create_study(storage=rdb, study_name=study_name,
                                 direction="maximize", load_if_exists=True,
-                                sampler=optuna.samplers.TPESampler(seed=settings["seed"], n_startup_trials=5),
                                 pruner=pruner or optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1))
+    # Seeded by the trials already stored: a sampler seeded alike in every session drew the same
+    # first configurations again after each resume (trials 3 and 4 repeated 0 and 1).
+    study.sampler = optuna.samplers.TPESampler(seed=settings["seed"] + len(study.trials), n_startup_trials=5)
     finished = (TrialState.COMPLETE, TrialState.PRUNED)
-    study.optimize(objective(algo, env_id, settings, runs_dir), callbacks=[MaxTrialsCallback(trials, finished)],
+    retry = rdb.get_heartbeat_stale_trial_callback()
+    study.optimize(objective(algo, env_id, settings, runs_dir, retry), callbacks=[MaxTrialsCallback(trials, finished)],
                    catch=(ValueError,))
     return study
 
@@ -153,10 +186,14 @@ def main(argv: list[str] | None = None) -> int:
                 "eval_episodes": args.eval_episodes, "seed": args.seed}
     study_name = args.study or f"tune-{args.algo}-{args.env}"
     optuna.logging.set_verbosity(optuna.logging.INFO)
+    training.stop_on_signals()
     try:
         study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings, args.runs_dir / study_name)
     except cli.UsageError as err:  # a storage that cannot be opened
         return cli.fail(err)
+    except KeyboardInterrupt as stop:
+        print(f"{stop}: the trial is queued again; the same command resumes it from its checkpoint", flush=True)
+        return 130
     out = args.runs_dir / study_name / "best.yml"
     out.write_text(best_yaml(study, args.env))
     print(f"best: trial {study.best_trial.number}, success {study.best_value:.1%} -> {out}\n"

@@ -295,18 +295,20 @@ def test_resume_without_a_checkpoint_is_a_one_line_error(tmp_path: Path, capsys:
     assert "no complete checkpoint to resume from" in err and "\n" not in err
 
 
-def test_a_signal_during_a_checkpoint_write_is_raised_after_it(tmp_path: Path) -> None:
-    """Raised inside torch's zip writer, a Ctrl-C broke the checkpoint and ended the run with an error."""
+def test_a_signal_stops_the_run_at_the_next_step_and_never_inside_a_write(tmp_path: Path,
+                                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """Raised inside torch's zip writer, a Ctrl-C broke the checkpoint and ended the run with an
+    error; raised inside loss.backward, it failed a tuning trial. The handler only records it."""
+    from stable_baselines3.common.callbacks import CheckpointCallback
     from stable_baselines3.common.env_util import make_vec_env
 
-    from agents.training import UninterruptedCheckpoints, stop_on_signals
+    from agents import training
 
     previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-    stop_on_signals()
+    monkeypatch.setitem(training._stop, "requested", None)
+    training.stop_on_signals()
     try:
         model = PPO("MlpPolicy", make_vec_env("Pendulum-v1", n_envs=1), n_steps=64, batch_size=64)
-        callback = UninterruptedCheckpoints(1, str(tmp_path))
-        callback.init_callback(model)
         saved = []
         real_save = model.save
 
@@ -316,10 +318,13 @@ def test_a_signal_during_a_checkpoint_write_is_raised_after_it(tmp_path: Path) -
             saved.append(Path(path))
 
         model.save = save_with_a_signal
-        with pytest.raises(KeyboardInterrupt, match="SIGTERM"):
-            callback.on_step()
-        assert saved and zipfile.is_zipfile(saved[0])
+        model.learn(1000, callback=[training.StopOnSignal(), CheckpointCallback(10, str(tmp_path))])
+        assert training.stop_requested() == "SIGTERM"
+        assert model.num_timesteps == 11  # the write was at step 10; the run stopped at the next
+        assert len(saved) == 1 and zipfile.is_zipfile(saved[0])
         PPO.load(saved[0])
+        with pytest.raises(KeyboardInterrupt, match="SIGINT"):  # a second signal aborts
+            os.kill(os.getpid(), signal.SIGINT)
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)

@@ -3,6 +3,8 @@ best trial is a YAML entry that train.py trains from."""
 
 from __future__ import annotations
 
+import os
+import signal
 from pathlib import Path
 
 import optuna
@@ -52,3 +54,53 @@ def test_a_study_never_reuses_another_studys_trial_folder(tmp_path: Path) -> Non
     assert (old / "best_model.json").read_text() == record and sorted(p.name for p in old.iterdir()) == ["best_model.json"]
     assert trial.user_attrs["run_dir"] == str(tmp_path / "runs/trial-0_2")
     assert trial.value == training.read_best(tmp_path / "runs/trial-0_2")["success_rate"]
+
+
+def test_a_resumed_study_samples_new_configurations(tmp_path: Path) -> None:
+    """Seeded alike in every session, the sampler drew the same first configurations again."""
+    storage = f"sqlite:///{tmp_path}/grid.db"
+    tuning.tune("ppo", "LightSail-v0", storage, "s", 1, SETTINGS, tmp_path / "runs")
+    study = tuning.tune("ppo", "LightSail-v0", storage, "s", 2, SETTINGS, tmp_path / "runs")
+    first, second = study.get_trials()
+    assert first.params != second.params
+
+
+class SignalAtFirstReport(optuna.pruners.BasePruner):
+    """Never prunes; sends SIGTERM to this process the first time it is asked."""
+
+    def __init__(self) -> None:
+        self.sent = False
+
+    def prune(self, study: optuna.Study, trial: optuna.trial.FrozenTrial) -> bool:
+        if not self.sent:
+            self.sent = True
+            os.kill(os.getpid(), signal.SIGTERM)
+        return False
+
+
+def test_a_stopped_trial_is_queued_again_and_resumes_its_checkpoint(tmp_path: Path,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    storage = f"sqlite:///{tmp_path}/grid.db"
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    monkeypatch.setitem(training._stop, "requested", None)
+    training.stop_on_signals()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            tuning.tune("ppo", "LightSail-v0", storage, "r", 1, SETTINGS, tmp_path / "runs", pruner=SignalAtFirstReport())
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    stopped, queued = optuna.load_study(study_name="r", storage=storage).get_trials()
+    assert stopped.state == TrialState.FAIL and queued.state == TrialState.WAITING
+    assert queued.params == stopped.params and queued.user_attrs["run_dir"] == stopped.user_attrs["run_dir"]
+    run_dir = Path(stopped.user_attrs["run_dir"])
+    assert training.read_run(run_dir)["sessions"][0]["status"] == "interrupted"
+
+    monkeypatch.setitem(training._stop, "requested", None)  # the next session
+    study = tuning.tune("ppo", "LightSail-v0", storage, "r", 1, SETTINGS, tmp_path / "runs")
+    (done,) = study.get_trials(states=(TrialState.COMPLETE,))
+    assert done.number == queued.number and done.user_attrs["run_dir"] == str(run_dir)
+    sessions = training.read_run(run_dir)["sessions"]
+    assert [s["status"] for s in sessions] == ["interrupted", "finished"]
+    assert sessions[1]["start_timesteps"] == sessions[0]["timesteps"] > 0
+    assert done.value == training.read_best(run_dir)["success_rate"]
