@@ -15,3 +15,17 @@ def test_the_envs_core_and_agents_never_import_the_analysis_modules() -> None:
     check = f"{RUNTIME}; import sys; print(sorted(m for m in sys.modules if m.startswith('sail_env.analysis')))"
     done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]"
+
+
+def test_the_core_knows_no_concrete_sail_model() -> None:
+    """The episode core and the spec take a plant through its contract (``sail_env.core.plant``):
+    a new sail model needs no change in ``sail_env.core``."""
+    import ast
+    from pathlib import Path
+
+    concrete = ("sail_env.physics.plant3d", "sail_env.physics.rigid3d", "PlanarPlant", "RigidPlant", "UncertainPlant")
+    for path in sorted(Path("sail_env/core").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                names = [node.module or "", *(alias.name for alias in node.names)]
+                assert not any(name.startswith(concrete) for name in names), f"{path} imports {names}"

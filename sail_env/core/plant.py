@@ -12,6 +12,8 @@ parameter draws. SI units throughout.
 
 | member | what the core asks |
 |---|---|
+| ``config`` | the configuration, whose timing the core reads: ``control_start_s``, ``control_step_s``, ``control_steps``, ``beam_cutoff_s`` |
+| ``light_speed_settings`` | the settings that set the fastest flight (named when a task would pass light speed) |
 | ``state_names``, ``state_units`` | the state's components and their units (``m``, ``m/s``, ``rad``, ``rad/s``: the observation's scales) |
 | ``input_names``, ``input_units``, ``input_ranges`` | the beam inputs; ``m``/``rad`` scale with the task's beam limits, other units by ``input_ranges`` (the input at action +1) |
 | ``fixed_state`` | quantities a start may name but not change (the 3D sail's spin) |
@@ -42,10 +44,21 @@ from sail_env.physics.linear import LinearModel
 from sail_env.physics.plant import PlantParams
 
 
+class Timing(Protocol):
+    """A plant configuration's timing, as the core reads it [s]."""
+
+    control_start_s: float
+    control_step_s: float
+    control_steps: int
+    beam_cutoff_s: float
+
+
 @runtime_checkable
 class Plant(Protocol):
     """A batched linear sail model, as the episode core uses it (the module's table)."""
 
+    config: Timing
+    light_speed_settings: str
     state_names: tuple[str, ...]
     state_units: tuple[str, ...]
     input_names: tuple[str, ...]

@@ -5,35 +5,27 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from sail_env.core.delay import delay_steps
 from sail_env.core.plant import Plant
-from sail_env.physics.config import PRESETS, SailConfig, check_below_light_speed, real_number
+from sail_env.physics.config import check_below_light_speed, real_number
 from sail_env.physics.mission import one_way_light_delay_s
-from sail_env.physics.plant import PlanarPlant
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
-from sail_env.physics.rigid3d.uncertainty import UncertainFlight, UncertainPlant
 
-#: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
-DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
 #: Observation scales: the state is divided by these (rates by the model's fastest rate too).
 POSITION_SCALE_M = 1e-2
 TILT_SCALE_RAD = 1e-3
-#: The plant of each kind of configuration.
-PLANTS = {SailConfig: PlanarPlant, RigidFlight: RigidPlant, UncertainFlight: UncertainPlant}
 #: Round-off allowed between times computed as ``start + steps · dt`` and configured times.
 TIME_TOLERANCE_S = 1e-9
 #: Largest relative push noise per step: a laser cannot pull, and beyond 0.25 a 4σ step would
 #: reverse the push (the per-step expansion in the push error, docs/physics.md §4, also loses
 #: its accuracy there).
 MAX_PUSH_NOISE = 0.25
-#: The settings that set the fastest flight, per kind of configuration (named when it would pass light speed).
-LIGHT_SPEED_SETTINGS = {SailConfig: "push_force_n and beam_cutoff_s",
-                        RigidFlight: "parameter_spread and cutoff_jitter_s",
-                        UncertainFlight: "parameter_spread, model_uncertainty.power and cutoff_jitter_s"}
+#: What builds a task's plant from its physical disturbances: ``make_plant(parameter_spread,
+#: beam_jitter_m, push_noise)``, e.g. ``functools.partial(PlanarPlant, config)``.
+PlantFactory = Callable[[float, float, float], Plant]
 #: Largest ``parameter_spread`` (exclusive): a factor ``1 − s`` must leave every length and mass positive.
 MAX_PARAMETER_SPREAD = 0.5
 
@@ -47,16 +39,6 @@ def finite_nonnegative(values: object, name: str, count: int | None = None) -> t
     if not all(math.isfinite(v) and v >= 0 for v in numbers):
         raise ValueError(f"{name} must be finite values >= 0, got {numbers}")
     return numbers
-
-
-def _resolve_config(config: object) -> SailConfig | RigidFlight:
-    """The ``config`` argument: a :class:`SailConfig`, a :class:`RigidFlight` or a preset's name."""
-    if type(config) in PLANTS:
-        return config
-    if isinstance(config, str) and config in PRESETS:
-        return PRESETS[config]
-    raise ValueError(f"config must be a SailConfig, a RigidFlight or one of {sorted(PRESETS)}, got {config!r} "
-                     f"(SailConfig(**fields) builds one from a dict)")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -116,11 +98,13 @@ class Disturbances:
 class EpisodeSpec:
     """A task: the plant and everything the episode core adds to it (validated here).
 
+    The spec knows no concrete sail model: the env that builds it passes the plant's factory
+    (:data:`PlantFactory`), which receives the physical disturbances.
+
     Attributes:
-        config: The nominal :class:`SailConfig`.
-        plant: The batched physics: :class:`~sail_env.physics.plant.PlanarPlant` for a
-            :class:`SailConfig`, :class:`~sail_env.physics.plant3d.RigidPlant` for a
-            :class:`~sail_env.physics.plant3d.RigidFlight`.
+        config: The plant's configuration (its timing: ``control_start_s``, ``control_step_s``,
+            ``control_steps``, ``beam_cutoff_s``).
+        plant: The batched physics (the :class:`~sail_env.core.plant.Plant` contract).
         nominal: The nominal linear model (what a controller designs on).
         disturbances: The :class:`Disturbances`.
         dt, n_steps: Control step [s] and number of steps in the control window.
@@ -133,20 +117,18 @@ class EpisodeSpec:
             last command's arrival (sizes the core's buffers).
     """
 
-    def __init__(self, config: SailConfig | RigidFlight | str = "seed", *, max_beam_offset_m: float = 0.02,
-                 max_beam_tilt_rad: float = 2e-3,
-                 start_half_widths: Sequence[float] = DEFAULT_START_HALF_WIDTHS,
+    def __init__(self, make_plant: PlantFactory, *, start_half_widths: Sequence[float],
+                 max_beam_offset_m: float = 0.02, max_beam_tilt_rad: float = 2e-3,
                  disturbances: Disturbances = Disturbances()) -> None:
-        config = _resolve_config(config)
         scales = [real_number(v, name) for name, v in (("max_beam_offset_m", max_beam_offset_m),
                                                       ("max_beam_tilt_rad", max_beam_tilt_rad))]
         for name, value in zip(("max_beam_offset_m", "max_beam_tilt_rad"), scales):
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
-        self.config = config
         self.disturbances = disturbances
-        self.plant: Plant = PLANTS[type(config)](config, disturbances.parameter_spread, disturbances.beam_jitter_m,
-                                                 disturbances.push_noise)
+        self.plant: Plant = make_plant(disturbances.parameter_spread, disturbances.beam_jitter_m,
+                                       disturbances.push_noise)
+        self.config = config = self.plant.config
         n = self.plant.n_states
         widths = finite_nonnegative(start_half_widths, "start_half_widths", n)
         if disturbances.any_sensor_noise and len(disturbances.sensor_noise_std) != n:
@@ -173,7 +155,7 @@ class EpisodeSpec:
         else:
             self.history_length = self.max_delay = 0
         self._check_cutoff()
-        settings = LIGHT_SPEED_SETTINGS[type(config)]
+        settings = self.plant.light_speed_settings
         check_below_light_speed(fastest, config.beam_cutoff_s + disturbances.cutoff_jitter_s,
                                 f"{settings} (fastest draw of parameter_spread, latest of cutoff_jitter_s)",
                                 settings.replace(" and ", " or "))
@@ -227,13 +209,6 @@ class EpisodeSpec:
                 f"last command has reached the sail ({last_arrival:.6g} s into the flight; the cut-off is at "
                 f"{c.beam_cutoff_s:.6g} s), got {jitter}")
 
-    @classmethod
-    def from_env_kwargs(cls, config: SailConfig | RigidFlight | str, max_beam_offset_m: float, max_beam_tilt_rad: float,
-                        start_half_widths: Sequence[float], **disturbances) -> EpisodeSpec:
-        """The spec of an env's keyword arguments (the disturbances by :class:`Disturbances`' field names)."""
-        return cls(config, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
-                   start_half_widths=start_half_widths, disturbances=Disturbances(**disturbances))
-
     @property
     def observation_size(self) -> int:
         return self.plant.n_states + 1 + self.plant.n_inputs * self.history_length
@@ -253,3 +228,17 @@ class EpisodeSpec:
     def input_to_action(self, beam_input: np.ndarray) -> np.ndarray:
         """Normalised action for a physical input (planar ``(d [m], ψ [rad])``), clipped."""
         return np.clip(np.asarray(beam_input) / self.action_scale, -1.0, 1.0).astype(np.float32)
+
+
+def task_spec(make_plant: PlantFactory, default_start_half_widths: Sequence[float], *,
+              start_half_widths: Sequence[float] | None = None, max_beam_offset_m: float = 0.02,
+              max_beam_tilt_rad: float = 2e-3, **disturbances: object) -> EpisodeSpec:
+    """The spec of an env's episode keywords: the beam limits, the start box (the plant's default
+    unless given) and the :class:`Disturbances` by their field names. The one place every env's
+    shared keywords are spelled out (their table is in :class:`Disturbances` and the env docstrings)."""
+    unknown = sorted(set(disturbances) - {field.name for field in dataclasses.fields(Disturbances)})
+    if unknown:
+        raise TypeError(f"unexpected keyword argument {unknown[0]!r}")
+    widths = default_start_half_widths if start_half_widths is None else start_half_widths
+    return EpisodeSpec(make_plant, start_half_widths=widths, max_beam_offset_m=max_beam_offset_m,
+                       max_beam_tilt_rad=max_beam_tilt_rad, disturbances=Disturbances(**disturbances))

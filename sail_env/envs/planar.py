@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from typing import Any
 
@@ -10,13 +11,28 @@ import numpy as np
 from gymnasium import spaces
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
-from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
+from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.core.state import EpisodeState
 from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.envs.rendering import SailRenderer
-from sail_env.physics.config import SailConfig
+from sail_env.physics.config import PRESETS, SailConfig
+from sail_env.physics.plant import PlanarPlant
 
 _ONE = np.zeros(1, dtype=np.int64)
+#: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
+DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
+
+
+def planar_spec(config: SailConfig | str = "seed", **keywords: Any) -> EpisodeSpec:
+    """The :class:`EpisodeSpec` of the planar keywords (see :class:`LightSailEnv`): the sail's
+    ``config`` (a :class:`SailConfig` or a preset's name) and the episode keywords of
+    :func:`~sail_env.core.spec.task_spec`; a bad value is a ``ValueError`` naming its keyword."""
+    if isinstance(config, str) and config in PRESETS:
+        config = PRESETS[config]
+    if type(config) is not SailConfig:
+        raise ValueError(f"config must be a SailConfig or one of {sorted(PRESETS)}, got {config!r} "
+                         f"(SailConfig(**fields) builds one from a dict)")
+    return task_spec(functools.partial(PlanarPlant, config), DEFAULT_START_HALF_WIDTHS, **keywords)
 
 
 class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -134,25 +150,8 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
 
-    def __init__(
-        self,
-        config: SailConfig | str = "seed",
-        render_mode: str | None = None,
-        *,
-        max_beam_offset_m: float = 0.02,
-        max_beam_tilt_rad: float = 2e-3,
-        start_half_widths: tuple[float, float, float, float] = DEFAULT_START_HALF_WIDTHS,
-        sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
-        beam_jitter_m: float = 0.0,
-        push_noise: float = 0.0,
-        cutoff_jitter_s: float = 0.0,
-        light_delay: bool = False,
-        parameter_spread: float = 0.0,
-    ) -> None:
-        self._start(EpisodeSpec.from_env_kwargs(
-            config, max_beam_offset_m, max_beam_tilt_rad, start_half_widths, sensor_noise_std=sensor_noise_std,
-            beam_jitter_m=beam_jitter_m, push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
-            light_delay=light_delay, parameter_spread=parameter_spread), render_mode)
+    def __init__(self, config: SailConfig | str = "seed", render_mode: str | None = None, **keywords: Any) -> None:
+        self._start(planar_spec(config, **keywords), render_mode)
 
     def _start(self, spec: EpisodeSpec, render_mode: str | None) -> None:
         """Set up the spaces and the core of ``spec`` (every task's env is this one with its spec)."""

@@ -8,14 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from sail_env.core.spec import Disturbances, EpisodeSpec
+from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics.config import SEED, real_number
-from sail_env.physics.plant3d import RigidFlight
+from sail_env.physics.plant3d import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, SHAPES, RigidSailConfig
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
-from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainFlight
+from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainFlight, UncertainPlant
 
 #: ``(x, y, vx, vy, θx, θy, ωx, ωy)``: LightSail-v0's start box on each axis.
 START_HALF_WIDTHS_3D = (5e-3, 5e-3, 0.1, 0.1, 2e-3, 2e-3, 1e-5, 1e-5)
@@ -41,14 +41,10 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  relativistic: bool = False, ground_jitter_rad: float = 0.0, diffraction_length_m: float = math.inf,
                  payload_offset_m: float = 0.0, dust_density_m3: float = 0.0, dust_grain_mass_kg: float = 0.0,
                  velocity_terms: bool = False, power_control: bool | float = False,
-                 control_start_s: float = SEED.control_start_s, max_beam_offset_m: float = 0.02,
-                 max_beam_tilt_rad: float = 2e-3, start_half_widths: tuple[float, ...] = START_HALF_WIDTHS_3D,
-                 sensor_noise_std: tuple[float, ...] = (0.0,) * 8, beam_jitter_m: float = 0.0,
-                 push_noise: float = 0.0, cutoff_jitter_s: float = 0.0, light_delay: bool = False,
-                 parameter_spread: float = 0.0,
-                 model_uncertainty: ModelUncertainty | dict[str, float] | None = None) -> EpisodeSpec:
-    """The :class:`EpisodeSpec` of the 3D keywords (see :class:`LightSail3DEnv`); a bad value is a
-    ``ValueError`` naming its keyword."""
+                 control_start_s: float = SEED.control_start_s,
+                 model_uncertainty: ModelUncertainty | dict[str, float] | None = None, **keywords: Any) -> EpisodeSpec:
+    """The :class:`EpisodeSpec` of the 3D keywords (see :class:`LightSail3DEnv`) and the episode keywords of
+    :func:`~sail_env.core.spec.task_spec`; a bad value is a ``ValueError`` naming its keyword."""
     for name, value, choices in (("sail_shape", sail_shape, SHAPES), ("beam_profile", beam_profile, BEAM_PROFILES)):
         if not (isinstance(value, str) and value in choices):
             raise ValueError(f"{name} must be one of {choices}, got {value!r}")
@@ -65,18 +61,14 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
         raise ValueError(f"model_uncertainty must be a ModelUncertainty, a dict of its fields or None, "
                          f"got {model_uncertainty!r}")
     # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainFlight.
-    make_flight = RigidFlight if model_uncertainty is None else functools.partial(UncertainFlight,
-                                                                                  uncertainty=model_uncertainty)
+    make_flight, plant = ((RigidFlight, RigidPlant) if model_uncertainty is None else
+                          (functools.partial(UncertainFlight, uncertainty=model_uncertainty), UncertainPlant))
     flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=power_control,
                          relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
                          diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
                          dust_density_m3=dust_density_m3, dust_grain_mass_kg=dust_grain_mass_kg,
                          velocity_terms=velocity_terms, control_start_s=control_start_s)
-    return EpisodeSpec(flight, max_beam_offset_m=max_beam_offset_m, max_beam_tilt_rad=max_beam_tilt_rad,
-                       start_half_widths=start_half_widths,
-                       disturbances=Disturbances(sensor_noise_std=sensor_noise_std, beam_jitter_m=beam_jitter_m,
-                                                 push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
-                                                 light_delay=light_delay, parameter_spread=parameter_spread))
+    return task_spec(functools.partial(plant, flight), START_HALF_WIDTHS_3D, **keywords)
 
 
 class LightSail3DEnv(LightSailEnv):

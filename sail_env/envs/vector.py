@@ -29,9 +29,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
-from sail_env.core.spec import DEFAULT_START_HALF_WIDTHS, EpisodeSpec
+from sail_env.core.spec import EpisodeSpec
 from sail_env.core.state import EpisodeState
 from sail_env.envs.options import reset_seeds, reset_states
+from sail_env.envs.planar import planar_spec
 from sail_env.physics.config import SailConfig
 
 
@@ -40,26 +41,9 @@ class LightSailVectorEnv(VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        config: SailConfig | str = "seed",
-        render_mode: str | None = None,
-        *,
-        max_beam_offset_m: float = 0.02,
-        max_beam_tilt_rad: float = 2e-3,
-        start_half_widths: tuple[float, float, float, float] = DEFAULT_START_HALF_WIDTHS,
-        sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
-        beam_jitter_m: float = 0.0,
-        push_noise: float = 0.0,
-        cutoff_jitter_s: float = 0.0,
-        light_delay: bool = False,
-        parameter_spread: float = 0.0,
-    ) -> None:
-        self._start(EpisodeSpec.from_env_kwargs(
-            config, max_beam_offset_m, max_beam_tilt_rad, start_half_widths, sensor_noise_std=sensor_noise_std,
-            beam_jitter_m=beam_jitter_m, push_noise=push_noise, cutoff_jitter_s=cutoff_jitter_s,
-            light_delay=light_delay, parameter_spread=parameter_spread), num_envs, render_mode)
+    def __init__(self, num_envs: int = 1, config: SailConfig | str = "seed", render_mode: str | None = None,
+                 **keywords: Any) -> None:
+        self._start(planar_spec(config, **keywords), num_envs, render_mode)
 
     @classmethod
     def from_spec(cls, spec: EpisodeSpec, num_envs: int = 1, render_mode: str | None = None) -> LightSailVectorEnv:

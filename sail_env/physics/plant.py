@@ -327,6 +327,8 @@ class PlanarPlant(LinearPlant):
     wider than the aperture.
     """
 
+    #: What sets the fastest flight (named when a task would pass light speed).
+    light_speed_settings = "push_force_n and beam_cutoff_s"
     state_names = STATE_NAMES
     state_units = ("m", "m/s", "rad", "rad/s")
     input_names = INPUT_NAMES

@@ -187,6 +187,8 @@ class RigidPlant(LinearPlant):
         push_noise: Relative standard deviation of the push per control step.
     """
 
+    #: What sets the fastest flight (named when a task would pass light speed).
+    light_speed_settings = "parameter_spread and cutoff_jitter_s"
     state_names = STATE_NAMES
     state_units = ("m", "m", "m/s", "m/s", "rad", "rad", "rad/s", "rad/s")
     spread_fields = SPREAD_FIELDS

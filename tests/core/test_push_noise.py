@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
-from sail_env.core import EpisodeSpec
-from sail_env.core.spec import Disturbances
+from sail_env.envs.planar import planar_spec
 from sail_env.physics import DEEP_DISH
 from sail_env.physics.linear import zoh_discretize
 from sail_env.physics.planar import push_sensitivity
@@ -29,7 +28,7 @@ def _window(spec, x0, actions, normals, exact):
 
 
 def test_expanded_push_noise_follows_the_exact_path_and_distribution():
-    spec = EpisodeSpec(DEEP_DISH, disturbances=Disturbances(push_noise=0.01))
+    spec = planar_spec(DEEP_DISH, push_noise=0.01)
     rng = np.random.default_rng(0)
     n, steps = 1000, spec.n_steps // 2
     x0 = rng.uniform(-spec.start_half_widths, spec.start_half_widths, (n, 4))

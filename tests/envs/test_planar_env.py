@@ -240,11 +240,11 @@ def test_long_light_delay_with_noise_runs_to_the_cutoff():
     assert len(rewards) == SEED.control_steps and np.isfinite(infos[-1]["terminal_pointing_rad"])
 
 
-def test_episode_spec_defaults_are_those_of_the_default_env():
-    """``EpisodeSpec()`` (what a controller may design on) is the default ``LightSailEnv``'s task."""
-    from sail_env.core import EpisodeSpec
+def test_planar_spec_defaults_are_those_of_the_default_env():
+    """``planar_spec()`` (what a controller may design on) is the default ``LightSailEnv``'s task."""
+    from sail_env.envs.planar import planar_spec
 
-    default, env_spec = EpisodeSpec(), LightSailEnv().episode_spec
+    default, env_spec = planar_spec(), LightSailEnv().episode_spec
     assert default.config == env_spec.config == SEED and default.disturbances == env_spec.disturbances
     np.testing.assert_array_equal(default.action_scale, env_spec.action_scale)
     np.testing.assert_array_equal(default.start_half_widths, env_spec.start_half_widths)

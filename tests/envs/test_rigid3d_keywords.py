@@ -3,6 +3,7 @@ the keyword and its range, decided at construction; NumPy scalars are accepted l
 states are limited radially, as divergence is; ``reset``'s arguments are parsed the same way by the
 single and the vector env."""
 
+import dataclasses
 import inspect
 import math
 import re
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
+from sail_env.core.spec import Disturbances, task_spec
 from sail_env.envs.rigid3d import LightSail3DEnv, rigid3d_spec
 
 
@@ -72,9 +74,17 @@ def test_values_at_the_limits_play_a_finite_episode(kwargs):
     assert info["diverged"] or math.isfinite(info["terminal_pointing_rad"])
 
 
+def env_keywords() -> list[str]:
+    """Every keyword of the 3D envs: the 3D ones and the episode keywords every env shares."""
+    own = [name for name in inspect.signature(rigid3d_spec).parameters if name != "keywords"]
+    shared = [name for name in inspect.signature(task_spec).parameters
+              if name not in ("make_plant", "default_start_half_widths", "disturbances")]
+    return own + shared + [field.name for field in dataclasses.fields(Disturbances)]
+
+
 def test_every_keyword_is_in_the_docstrings_table_with_its_range():
     table = LightSail3DEnv.__doc__.split("## Arguments")[1].split("``info[")[0]
-    for name in inspect.signature(rigid3d_spec).parameters:
+    for name in env_keywords():
         assert f"``{name}``" in table, name
     assert "π / dt" in table  # the range as a rule, not one setting's number
 
@@ -89,7 +99,7 @@ NUMERIC = {"curvature_radius_m": 12.0, "com_distance_m": 9.0, "absorptivity": 0.
 def test_the_numeric_table_covers_every_numeric_keyword():
     skip = {"sail_shape", "beam_profile", "relativistic", "velocity_terms", "light_delay", "start_half_widths",
             "sensor_noise_std", "model_uncertainty"}  # model_uncertainty: its fields, tests/physics/test_uncertainty.py
-    assert set(NUMERIC) == set(inspect.signature(rigid3d_spec).parameters) - skip
+    assert set(NUMERIC) == set(env_keywords()) - skip
 
 
 @pytest.mark.parametrize("name", sorted(NUMERIC))

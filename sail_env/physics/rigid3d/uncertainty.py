@@ -167,6 +167,7 @@ class UncertainPlant(RigidPlant):
 
     spread_fields = SPREAD_FIELDS + UNCERTAIN_FIELDS
     always_biased = True
+    light_speed_settings = "parameter_spread, model_uncertainty.power and cutoff_jitter_s"
 
     def __init__(self, flight: UncertainFlight, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
                  push_noise: float = 0.0) -> None:
