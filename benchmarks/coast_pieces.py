@@ -40,7 +40,7 @@ import scipy.integrate
 import scipy.linalg
 
 from sail_env.physics.config import DEEP_DISH
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
 RESULTS = Path(__file__).parent / "results"

@@ -26,7 +26,7 @@ import numpy as np
 import scipy.integrate
 
 from sail_env.physics.config import DEEP_DISH
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d import BEAM_PROFILES, RigidSail, RigidSailConfig, state_from_small
 from sail_env.physics.rigid3d.body import small_state
 

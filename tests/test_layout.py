@@ -23,7 +23,7 @@ def test_the_core_knows_no_concrete_sail_model() -> None:
     import ast
     from pathlib import Path
 
-    concrete = ("sail_env.physics.plant3d", "sail_env.physics.rigid3d", "PlanarPlant", "RigidPlant", "UncertainPlant")
+    concrete = ("sail_env.physics.planar_plant", "sail_env.physics.rigid3d", "PlanarPlant", "RigidPlant", "UncertainPlant")
     for path in sorted(Path("sail_env/core").glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom):

@@ -26,7 +26,6 @@ from sail_env.core import kernels
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, log_ratio, succeeded
 from sail_env.core.spec import EpisodeSpec
 from sail_env.core.state import EpisodeState, Slot, allocate
-from sail_env.physics.plant import PlantParams
 
 OBSERVATION_LIMIT = kernels.OBSERVATION_LIMIT
 

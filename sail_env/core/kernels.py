@@ -27,8 +27,8 @@ from sail_env.core.state import Slot
 OBSERVATION_LIMIT = 1e3
 
 # The layout's entries as plain integers (compile-time constants in the kernels).
-_N, _NS, _NI, _NC, _NP, _NR, _W, _NJ, _NIMP = (int(s) for s in (Slot.ENVS, Slot.STATES, Slot.INPUTS, Slot.COLUMNS,
-                                                                Slot.POWERS, Slot.SPEED_ROWS, Slot.NOISE_STEPS,
+_N, _NS, _NI, _NC, _NP, _NR, _NJ, _NIMP = (int(s) for s in (Slot.ENVS, Slot.STATES, Slot.INPUTS, Slot.COLUMNS,
+                                                                Slot.POWERS, Slot.SPEED_ROWS,
                                                                 Slot.JITTERED, Slot.IMPACTS))
 _T, _CR, _SR, _H, _WIN, _PUSHED, _SENSED, _POWER, _G, _D, _K = (
     int(s) for s in (Slot.DELAY_LENGTH, Slot.COMMAND_RING, Slot.STATE_RING, Slot.HISTORY, Slot.WINDOW, Slot.PUSHED,
@@ -74,7 +74,7 @@ def _physics(i: int, column: int, u: np.ndarray, z: np.ndarray, floats: np.ndarr
     """One plant step of environment ``i`` (its state in ``floats``, updated in place) with input
     ``u`` (m, and 1 for a constant term) and the per-step noise of noise step ``column``.
     ``u`` receives the jitter; ``z`` is scratch (n + columns)."""
-    n, m, cols, powers, w = layout[_NS], layout[_NI], layout[_NC], layout[_NP], layout[_W]
+    n, m, cols, powers = layout[_NS], layout[_NI], layout[_NC], layout[_NP]
     x0 = _fl(layout, _X, i)
     normals = _fl(layout, _NORM, i)
     jittered = layout[_NJ]

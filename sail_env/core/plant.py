@@ -7,7 +7,7 @@ The core never looks behind this interface, so a new sail model is a class with 
 and the agents use no member it does not declare.
 
 All arrays are batched over ``k`` environments: states ``x`` (k, n), inputs ``u`` (k, m), flight
-times ``t`` (k,). ``p`` is the :class:`~sail_env.physics.plant.PlantParams` of those environments'
+times ``t`` (k,). ``p`` is the :class:`~sail_env.physics.linear_plant.PlantParams` of those environments'
 parameter draws. SI units throughout.
 
 | member | what the core asks |
@@ -41,7 +41,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from sail_env.physics.linear import LinearModel
-from sail_env.physics.plant import PlantParams
+from sail_env.physics.linear_plant import PlantParams
 
 
 class Timing(Protocol):

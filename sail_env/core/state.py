@@ -22,7 +22,7 @@ import enum
 
 import numpy as np
 
-from sail_env.physics.plant import PlantParams
+from sail_env.physics.linear_plant import PlantParams
 
 
 class Slot(enum.IntEnum):
@@ -107,7 +107,7 @@ class EpisodeState:
         jitter_std: (N, W) the beam jitter's standard deviation at each noise step [m].
         impact_counts, impact_std: (N, W) the impacts' Poisson count per noise step; (N, I) the
             standard deviation of one impact's kick on each impulse row.
-        params: the plant's :class:`~sail_env.physics.plant.PlantParams` (leading axis N, or 1 when shared).
+        params: the plant's :class:`~sail_env.physics.linear_plant.PlantParams` (leading axis N, or 1 when shared).
         rngs: each environment's generator (None before its first reset).
     """
 

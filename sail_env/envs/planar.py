@@ -16,7 +16,7 @@ from sail_env.core.state import EpisodeState
 from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.envs.rendering import SailRenderer
 from sail_env.physics.config import PRESETS, SailConfig
-from sail_env.physics.plant import PlanarPlant
+from sail_env.physics.planar_plant import PlanarPlant
 
 _ONE = np.zeros(1, dtype=np.int64)
 #: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.

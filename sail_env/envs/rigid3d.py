@@ -12,7 +12,7 @@ from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics.config import SEED, real_number
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, SHAPES, RigidSailConfig
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
 from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainFlight, UncertainPlant

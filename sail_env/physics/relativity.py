@@ -23,7 +23,6 @@ import math
 from typing import Literal
 
 import numpy as np
-import scipy.integrate
 
 from sail_env.physics.constants import SPEED_OF_LIGHT
 
@@ -104,6 +103,8 @@ def beta_history(times: np.ndarray, power_w: float, mass_kg: float, law: Law = "
         else:
             raise ValueError(f"law must be one of {LAWS}, got {law!r}")
         return [dbeta, beta * SPEED_OF_LIGHT]
+
+    import scipy.integrate  # here: ~0.3 s to import, and only this reference integration needs it
 
     sol = scipy.integrate.solve_ivp(rhs, (0.0, float(times[-1])), [0.0, 0.0], t_eval=times,
                                     method="DOP853", rtol=1e-10, atol=1e-14)

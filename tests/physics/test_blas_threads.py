@@ -9,8 +9,8 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 from sail_env.physics.blas import blas_threads, one_blas_thread
-from sail_env.physics.plant import THREADED_BATCH
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.linear_plant import THREADED_BATCH
+from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
 

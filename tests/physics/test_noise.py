@@ -236,7 +236,7 @@ def test_half_vectorised_coasts_of_the_real_plants_are_the_full_ones():
     from sail_env.envs.rigid3d import rigid3d_spec
     from sail_env.physics.linear import zoh_discretize
     from sail_env.physics.noise import mean_and_covariance, second_moment, vec_moment_generator
-    from sail_env.physics.plant import PlanarPlant
+    from sail_env.physics.planar_plant import PlanarPlant
     from sail_env.tasks import TASKS
 
     rng = np.random.default_rng(5)

@@ -13,7 +13,7 @@ import scipy.interpolate
 import scipy.optimize
 
 from sail_env.physics.config import DEEP_DISH
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights, fly

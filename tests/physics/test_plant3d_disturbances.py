@@ -10,7 +10,7 @@ import scipy.linalg
 from sail_env.core import EpisodeCore
 from sail_env.envs.rigid3d import rigid3d_spec
 from sail_env.physics.noise import mean_and_covariance, second_moment
-from sail_env.physics.plant3d import OMEGA_Y, THETA_Y, RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import OMEGA_Y, THETA_Y, RigidFlight, RigidPlant
 from sail_env.physics.rigid3d import RigidSailConfig
 
 DEEP_MIRROR = RigidSailConfig(curvature_radius_m=4.0)

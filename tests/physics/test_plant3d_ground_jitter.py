@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from sail_env.physics.noise import mean_and_covariance, second_moment
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.analysis.jitter import accumulate_covariance
 

@@ -10,7 +10,7 @@ import scipy.integrate
 
 from sail_env.physics.config import DEEP_DISH
 from sail_env.physics.constants import SPEED_OF_LIGHT
-from sail_env.physics.plant3d import COAST_SEGMENT_S, RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import COAST_SEGMENT_S, RigidFlight, RigidPlant
 from sail_env.physics.relativity import time_to_beta
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
@@ -96,10 +96,10 @@ def test_shared_model_steps_as_a_draw_of_nominal_factors():
 
 @pytest.mark.parametrize("noisy", [False, True])
 def test_coast_builds_its_pieces_in_batches_of_any_size(monkeypatch, noisy):
-    """The pieces' propagators are built :data:`~sail_env.physics.plant.COAST_BATCH` at a time: batches
+    """The pieces' propagators are built :data:`~sail_env.physics.linear_plant.COAST_BATCH` at a time: batches
     of 7 (cut mid-coast, different per environment) give the coast of one batch for all 118 pieces."""
     from sail_env.envs.rigid3d import rigid3d_spec
-    from sail_env.physics import plant as plant_module
+    from sail_env.physics import linear_plant as plant_module
     from sail_env.tasks import TASKS
 
     kwargs = dict(TASKS["LightSail3DRealistic-v0"])

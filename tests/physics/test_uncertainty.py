@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401
-from sail_env.physics.plant3d import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation

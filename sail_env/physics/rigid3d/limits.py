@@ -1,5 +1,5 @@
 """The valid ranges of the 3D flight's settings that depend on the sail and its flight (docs/physics.md
-§12-§15), checked when a :class:`~sail_env.physics.plant3d.RigidPlant` is built: each refusal is one
+§12-§15), checked when a :class:`~sail_env.physics.rigid3d.plant.RigidPlant` is built: each refusal is one
 ``ValueError`` naming the setting and its range, and the reason is the physics the model stands on.
 
 The flight is bounded by its Newtonian law ``D = a t²/2``, ``v = a t`` at the fastest parameter
@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from sail_env.physics.constants import HYDROGEN_MASS_KG
-from sail_env.physics.plant import MAX_TILT_RAD
+from sail_env.physics.linear_plant import MAX_TILT_RAD
 from sail_env.physics.rigid3d.config import MIN_CAUGHT_FRACTION
 
 #: Largest relative power command ``u₅``. At −50 % the push is still half the nominal, so the push
@@ -57,7 +57,7 @@ def _bisect(inside, low: float, high: float) -> float:
 def check_flight(flight, lin, parameter_spread: float, beam_jitter_m: float) -> None:
     """The settings whose range depends on the sail's push, mass and inertia (``lin``, a
     :class:`~sail_env.physics.rigid3d.linearise.Linearisation`) and its flight (``flight``, a
-    :class:`~sail_env.physics.plant3d.RigidFlight`)."""
+    :class:`~sail_env.physics.rigid3d.plant.RigidFlight`)."""
     sail, dt = flight.sail, flight.control_step_s
     a, tilt = sail.aperture_radius_m, min(sail.aperture_radius_m / sail.com_distance_m, MAX_TILT_RAD)
     if beam_jitter_m > a:

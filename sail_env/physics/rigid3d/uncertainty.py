@@ -37,10 +37,9 @@ import dataclasses
 import math
 
 import numpy as np
-import scipy.interpolate
 
 from sail_env.physics.linear import sample_uniform
-from sail_env.physics.plant3d import OMEGA_Y, SPREAD_FIELDS, X, RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation
@@ -130,6 +129,8 @@ class CurvatureTable:
                                    spin) for a in (0.0, 1.0)] for r in self.radii]
         stacked = [np.stack([[v[a][q] for a in (0, 1)] for v in values]) for q in range(4)]  # (nodes, 2, ...)
         self._parts = [(s[:, 0], s[:, 1] - s[:, 0]) for s in stacked]
+        import scipy.interpolate  # here: ~0.4 s to import, which every other task would pay
+
         self._splines = None if len(self.radii) == 1 else [
             tuple(scipy.interpolate.CubicSpline(self.radii, part, axis=0) for part in pair) for pair in self._parts]
 

@@ -4,7 +4,7 @@
 (shape, beam, materials, masses), the spin, the optional power command and the timing.
 :class:`RigidPlant` is the 8-state, 4-input linear model of
 :func:`~sail_env.physics.rigid3d.linearise` at the nominal configuration behind the
-:class:`~sail_env.physics.plant.LinearPlant` interface: the exact step, the envelope and the
+:class:`~sail_env.physics.linear_plant.LinearPlant` interface: the exact step, the envelope and the
 coast are the planar plant's code. The surface quadrature runs once per plant; a parameter
 draw scales the mass, the inertia tensor and the beam power, which only rescales rows of the
 radiation wrench's Jacobian (no quadrature per reset). Along the flight the Doppler factor and,
@@ -32,7 +32,7 @@ import numpy as np
 from sail_env.physics.config import SEED, boolean, real_number
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
 from sail_env.physics.noise import moment_generator, moment_growth_rate
-from sail_env.physics.plant import MAX_TILT_RAD, LinearPlant, PlantParams
+from sail_env.physics.linear_plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig

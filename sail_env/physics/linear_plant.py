@@ -5,7 +5,8 @@ disturbances that act on the physics (beam jitter and push noise, per control st
 as white noise over longer propagations). It knows nothing of light delay,
 observations, rewards or episodes (``sail_env.core``). :class:`LinearPlant` holds what
 every linear model shares (the exact step, the envelope, the coast);
-:class:`PlanarPlant` is the planar model, ``sail_env.physics.plant3d.RigidPlant`` the 3D one.
+``sail_env.physics.planar_plant.PlanarPlant`` is the planar model,
+``sail_env.physics.rigid3d.plant.RigidPlant`` the 3D one.
 
 Every method works on a batch of environments: states ``x`` (k, n), inputs ``u`` (k, m)
 and :class:`PlantParams` whose arrays lead with k, or with 1 when all environments
@@ -23,18 +24,12 @@ from types import MappingProxyType
 import numpy as np
 
 from sail_env.physics.blas import one_blas_thread, single_threaded
-from sail_env.physics.config import SailConfig, moment_of_inertia
-from sail_env.physics.linear import LinearModel, push_expansion, sample_gaussian, zoh_discretize
-from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_growth_rate,
-                                    moment_propagator, second_moment)
-from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
-                                     rates, system_matrices)
-from sail_env.physics.pointing import envelope_table, peak_speed
+from sail_env.physics.linear import LinearModel, sample_gaussian, zoh_discretize
+from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_propagator, second_moment)
+from sail_env.physics.pointing import peak_speed
 
 #: The sail has left the small-angle regime the model is valid in.
 MAX_TILT_RAD = 0.05
-#: The parameters a spread draws, in draw order (one uniform factor each).
-SPREAD_FIELDS = ("sail_mass_kg", "craft_mass_kg", "strut_length_m", "com_distance_m", "curvature_radius_m")
 #: Largest growth ``e^GROWTH_PER_PIECE`` of one piece of a long propagation: from inside the
 #: aperture an unstable sail then stays finite until the divergence test catches it.
 GROWTH_PER_PIECE = 20.0
@@ -310,105 +305,3 @@ class LinearPlant:
         phi, gamma = zoh_discretize(q.a, q.b, piece[rows])
         drive = np.einsum("...ij,...j->...i", gamma, self.with_bias(u)[rows])
         return [(phi.reshape(k, count, *phi.shape[1:])[:, j], drive.reshape(k, count, -1)[:, j]) for j in range(count)]
-
-
-class PlanarPlant(LinearPlant):
-    """Batched physics of the planar model (:mod:`sail_env.physics.planar`) for the episode core.
-
-    Args:
-        config: The nominal configuration.
-        parameter_spread: Relative half-width of a uniform per-episode draw of each of
-            :data:`SPREAD_FIELDS`.
-        beam_jitter_m: Standard deviation of the beam's landing offset per control step, at most
-            the aperture radius (the linear model assumes the beam lands on the sail).
-        push_noise: Relative standard deviation of the push per control step.
-
-    Raises ``ValueError`` for a spread that could draw an invalid configuration or a jitter
-    wider than the aperture.
-    """
-
-    #: What sets the fastest flight (named when a task would pass light speed).
-    light_speed_settings = "push_force_n and beam_cutoff_s"
-    state_names = STATE_NAMES
-    state_units = ("m", "m/s", "rad", "rad/s")
-    input_names = INPUT_NAMES
-    input_units = ("m", "rad")
-    input_ranges: dict[str, float] = {}
-    spread_fields = SPREAD_FIELDS
-    jitter_inputs = (0,)
-    velocity_rows = (VX,)
-    #: The sail has left the beam (``|X|`` beyond the aperture) or ``|θ|`` beyond ``min(a/Lc, MAX_TILT_RAD)``.
-    divergence_groups = ((X,), (THETA,))
-
-    def __init__(self, config: SailConfig, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
-                 push_noise: float = 0.0) -> None:
-        self.config = config
-        self.parameter_spread = parameter_spread
-        self._check_spread_box()
-        if beam_jitter_m > config.aperture_radius_m:
-            raise ValueError(f"beam_jitter_m must be <= aperture_radius_m ({config.aperture_radius_m} m): the "
-                             f"beam must land on the sail, got {beam_jitter_m}")
-        super().__init__(PlanarModel(config), config.control_step_s, parameter_spread, beam_jitter_m, push_noise)
-
-    def _check_spread_box(self) -> None:
-        """Every configuration the spread can draw must be valid (the corners are the worst)."""
-        s, c = self.parameter_spread, self.config
-        if c.strut_length_m * (1 - s) < c.com_distance_m * (1 + s):
-            raise ValueError(f"parameter_spread={s} can draw strut_length_m < com_distance_m: needs "
-                             f"strut_length_m >= com_distance_m (1 + s) / (1 - s) = "
-                             f"{c.com_distance_m * (1 + s) / (1 - s):.4g} m, got {c.strut_length_m}")
-        if c.curvature_radius_m * (1 - s) < c.aperture_radius_m:
-            raise ValueError(f"parameter_spread={s} can draw curvature_radius_m < aperture_radius_m "
-                             f"({c.aperture_radius_m} m): needs curvature_radius_m >= "
-                             f"{c.aperture_radius_m / (1 - s):.4g} m, got {c.curvature_radius_m}")
-
-    def start_limits(self) -> np.ndarray:
-        c = self.config
-        tilt = min(c.aperture_radius_m / (c.com_distance_m * (1 + self.parameter_spread)), MAX_TILT_RAD)
-        return np.array([c.aperture_radius_m, c.aperture_radius_m / self.dt, tilt, tilt / self.dt])
-
-    def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
-        c = self.config
-        sail, craft, strut, lc, radius = (getattr(c, name) * factors[:, i] for i, name in enumerate(SPREAD_FIELDS))
-        if shared:  # exactly the nominal model's matrices
-            a, b = self.nominal.A[None], self.nominal.B[None]
-        else:
-            a, b = system_matrices(c.push_force_n, sail + craft, moment_of_inertia(sail, craft, lc, strut), lc, radius)
-        if self.push_noise:
-            coeffs = push_expansion(a, b, *push_sensitivity(a, b), self.dt)
-        else:
-            phi, gamma = self.nominal.discretize(self.dt) if shared else zoh_discretize(a, b, self.dt)
-            coeffs = np.concatenate([phi, gamma], axis=-1)[:, None]
-        step = coeffs.reshape(len(factors), -1, 6)
-        growth, _ = rates(a)
-        if self.noisy:
-            growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise))
-        # |Lc θ| ≤ a and |θ| ≤ MAX_TILT_RAD in one bound on |θ|.
-        limits = np.stack([np.full(len(lc), c.aperture_radius_m), np.minimum(c.aperture_radius_m / lc, MAX_TILT_RAD)], 1)
-        return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), limits, growth, shared)
-
-    @property
-    def acceleration_m_s2(self) -> float:
-        """Nominal axial acceleration [m/s²] (what the light-delay rule assumes)."""
-        return self.config.axial_acceleration_m_s2
-
-    @property
-    def max_acceleration_m_s2(self) -> float:
-        """Largest axial acceleration a parameter draw can give (the lightest sail)."""
-        return self.config.axial_acceleration_m_s2 / (1 - self.parameter_spread)
-
-    def speed(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
-        """Axial speed ``Vz = a t`` [m/s] (Newtonian, as in the seed's planar model)."""
-        return p.acceleration * t
-
-    def pointing(self, p: PlantParams, x: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Flight direction ``|Vx| / Vz`` [rad] if the beam is cut at ``t``."""
-        return np.abs(x[:, VX]) / self.speed(p, t)
-
-    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
-        return moment_generator(p.a, p.b, u, self.white_noise)
-
-    def rate_scale(self) -> float:
-        """The nominal model's fastest rate [1/s]: the time scale of the observations."""
-        stability = self.nominal.stability
-        return max([*stability.frequencies, stability.growth_rate])
