@@ -190,8 +190,8 @@ def train(args: argparse.Namespace, seed: int) -> dict:
         norm_reward=args.norm_reward, zero_obs=args.zero_obs, eval_episodes=args.eval_episodes,
         det_success=deterministic["success"], det_return=deterministic["return"],
         sto_success=stochastic["success"], sto_return=stochastic["return"],
-        train_last200_return=round(float(np.mean(returns[-200:])), 4),
-        train_last200_success=round(float(np.mean(successes[-200:])), 4),
+        train_last200_return=round(float(np.mean(returns[-200:])), 4) if returns else None,
+        train_last200_success=round(float(np.mean(successes[-200:])), 4) if returns else None,
         final_action_std=[round(s, 4) for s in agent.log_std.exp()[0].tolist()],
         obs_rms_std=None if obs_rms is None else np.sqrt(obs_rms.var).round(6).tolist(),
         wall_s=round(time.time() - start, 1), date=datetime.date.today().isoformat())
