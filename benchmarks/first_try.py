@@ -1,8 +1,9 @@
 """A first try with a standard PPO: what its training curve measures on LightSail-v0 (issue 19).
 
-A single-file PPO in the style of CleanRL's ``ppo_continuous_action.py`` (its defaults: 4 envs,
-2048 steps per env and update, 10 epochs of 32 minibatches, a state-independent log-std starting
-at 0) behind Gymnasium's standard wrappers (ClipAction, NormalizeObservation + clip,
+A single-file PPO in the style of CleanRL's ``ppo_continuous_action.py`` (its defaults: 2048
+steps per env and update, 10 epochs of 32 minibatches, a state-independent log-std starting at 0;
+but 4 envs, as in issue 19's run, and an unclipped value loss) behind Gymnasium's standard
+wrappers (ClipAction, NormalizeObservation + clip,
 NormalizeReward + clip). After training it plays fresh episodes, seeded apart from training,
 twice: with the mean action (deterministic, how the project scores a learner) and with actions
 sampled as in training (stochastic). The training-time return of the last 200 episodes is the
@@ -187,7 +188,7 @@ def train(args: argparse.Namespace, seed: int) -> dict:
     stochastic = play(args.env, lambda o: policy(o, True), args.eval_episodes)
     return dict(
         env=args.env, seed=seed, steps=steps, log_std_init=args.log_std_init, norm_obs=args.norm_obs,
-        norm_reward=args.norm_reward, zero_obs=args.zero_obs, eval_episodes=args.eval_episodes,
+        norm_reward=args.norm_reward, gamma=args.gamma, zero_obs=args.zero_obs, eval_episodes=args.eval_episodes,
         det_success=deterministic["success"], det_return=deterministic["return"],
         sto_success=stochastic["success"], sto_return=stochastic["return"],
         train_last200_return=round(float(np.mean(returns[-200:])), 4) if returns else None,
