@@ -3,8 +3,7 @@
 A single-file PPO in the style of CleanRL's ``ppo_continuous_action.py`` (its defaults: 2048
 steps per env and update, 10 epochs of 32 minibatches, a state-independent log-std starting at 0;
 but 4 envs, as in issue 19's run, and an unclipped value loss) behind Gymnasium's standard
-wrappers (ClipAction, NormalizeObservation + clip,
-NormalizeReward + clip). After training it plays fresh episodes, seeded apart from training,
+wrappers (ClipAction, NormalizeObservation + clip, NormalizeReward + clip). After training it plays fresh episodes, seeded apart from training,
 twice: with the mean action (deterministic, how the project scores a learner) and with actions
 sampled as in training (stochastic). The training-time return of the last 200 episodes is the
 curve such a user looks at; it is the stochastic policy's, so with the initial std of 1 (the
