@@ -1,6 +1,8 @@
 """The benchmark scripts that print README tables run (one episode per cell): they import the
 library, and a refactoring that breaks them fails here rather than when someone re-measures."""
 
+import json
+
 import pytest
 
 from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed
@@ -63,3 +65,21 @@ def test_speed_refuses_a_readme_without_its_markers_before_measuring(tmp_path, c
     readme.write_text("no markers\n")
     assert speed.main(["--quick", "--readme", str(readme), "--out", str(tmp_path / "s.json")]) == 2
     assert "speed-table:start" in capsys.readouterr().err and not (tmp_path / "s.json").exists()
+
+
+def test_first_try_trains_evaluates_and_appends_one_json_line(tmp_path, capsys):
+    """docs/learners.md's first-try table: one update of the single-file PPO (one env, one
+    episode of 256 steps), its row holding both evaluations and the training-time numbers; the
+    noise table's LQR without noise succeeds."""
+    from benchmarks import first_try
+
+    out = tmp_path / "first_try.jsonl"
+    args = ["--total-steps", "256", "--num-envs", "1", "--num-steps", "256", "--minibatches", "4",
+            "--eval-episodes", "1", "--out", str(out)]
+    (row,) = first_try.main(args)
+    assert json.loads(out.read_text()) == row
+    assert {"det_success", "sto_success", "train_last200_return", "final_action_std", "wall_s"} <= row.keys()
+    assert row["steps"] == 256 and row["log_std_init"] == 0.0 and row["train_last200_return"] is not None
+    (table,) = first_try.main(["--noise-table", "--eval-episodes", "2", "--out", str(out)])
+    assert table["rows"][0] == {"sigma": 0.0, "success": 1.0, "return": table["rows"][0]["return"]}
+    assert len(out.read_text().splitlines()) == 2
