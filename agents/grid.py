@@ -47,7 +47,7 @@ from optuna.exceptions import UpdateFinishedTrialError
 from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError, SQLAlchemyError
 
 from agents import cli, evaluation, training
-from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, normalize_kwargs, versions
+from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, versions
 from sail_env.tasks import PLANAR_TASKS, TASKS
 
 DEFAULT_STORAGE = "sqlite:///runs/grid.db"
@@ -319,9 +319,8 @@ def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str,
     if cell.trained:
         config = cell_config(cell, settings)
         result["hyperparams"] = config["hyperparams"]
-        normalized = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
         try:  # a cell put back in the queue continues from its newest checkpoint that loads
-            reached = training.checkpoint_steps(training.resumable_checkpoint(run_dir, normalized))
+            reached = training.checkpoint_steps(training.resumable_checkpoint(run_dir, config["hyperparams"]))
         except ModelLoadError:  # none (a worker killed while writing its first one): start afresh
             reached = None
         resume, done = reached is not None, reached is not None and reached >= int(config["hyperparams"]["n_timesteps"])

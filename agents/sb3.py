@@ -4,7 +4,8 @@ A run directory (``train.py --out DIR``) holds, for every saved model ``NAME.zip
 ``VecNormalize`` statistics it was trained with in ``NAME_vecnormalize.pkl``
 (checkpoints follow SB3's own naming, ``rl_model_vecnormalize_<N>_steps.pkl``).
 :meth:`SB3Agent.load` finds them from the model path, and the run's ``run.json`` tells it
-whether the model needs them and which env it was trained on.
+whether the model needs them, how many observations it sees at once (``frame_stack``) and
+which env it was trained on.
 """
 
 from __future__ import annotations
@@ -131,6 +132,16 @@ def normalize_kwargs(value: bool | str | dict[str, Any]) -> dict[str, Any] | Non
     return dict(value)
 
 
+def frame_stack_of(hyperparams: dict[str, Any]) -> int:
+    """How many observations the policy sees at once (``frame_stack``; 1: the newest only)."""
+    return int(hyperparams.get("frame_stack", 1))
+
+
+def unstacked_shape(shape: tuple[int, ...], frame_stack: int) -> tuple[int, ...]:
+    """The env's observation shape under a model's ``frame_stack`` observations stacked along the last axis."""
+    return (*shape[:-1], shape[-1] // frame_stack)
+
+
 # ---------------------------------------------------------------------- files
 def normalizer_path(model_path: str | Path) -> Path:
     """Where the VecNormalize statistics of a saved model live."""
@@ -214,12 +225,16 @@ def versions() -> dict[str, str]:
 class SB3Agent:
     """A trained SB3 model behind the :class:`~agents.base.Agent` interface (deterministic).
 
-    ``trained_env`` is the env id its run was trained on (from ``run.json``), if known.
+    ``trained_env`` is the env id its run was trained on (from ``run.json``), if known. A model
+    trained with ``frame_stack`` k > 1 sees what VecFrameStack showed it: the last k normalised
+    observations of each env side by side, oldest first, zeros before the episode's first.
     """
 
     def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize | None, name: str,
-                 trained_env: str | None = None) -> None:
+                 trained_env: str | None = None, frame_stack: int = 1) -> None:
         self.model, self.normalizer, self.name, self.trained_env = model, normalizer, name, trained_env
+        self.frame_stack = frame_stack
+        self.history: np.ndarray | None = None  # the stacked observations; None until an episode's first
 
     @classmethod
     def load(cls, path: str | Path, observation_shape: tuple[int, ...] | None = None,
@@ -239,13 +254,14 @@ class SB3Agent:
         # runs/latest/best_model.zip is named (and recorded) by the run the link points at now.
         run_name = path.resolve().parent.name
         algo = algo_of(path)
-        stats, record = normalizer_path(path), run_record(path)
+        stats, record, frame_stack = normalizer_path(path), run_record(path), 1
         if record is not None:
             record_path, config = record
             try:
                 normalised = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
+                frame_stack = frame_stack_of(config["hyperparams"])
             except (KeyError, AttributeError, TypeError, ValueError) as err:
-                raise ModelLoadError(f"{record_path}: no readable hyperparams.normalize ({err})") from err
+                raise ModelLoadError(f"{record_path}: no readable hyperparams.normalize/frame_stack ({err})") from err
             if normalised != stats.is_file():
                 raise ModelLoadError(f"{stats}: {'not found' if normalised else 'unexpected'}; {record_path} says the "
                                      f"model was trained {'with' if normalised else 'without'} VecNormalize")
@@ -258,18 +274,29 @@ class SB3Agent:
             raise ModelLoadError(f"{path}: cannot load {algo} model ({type(err).__name__}: {err})") from err
         shape = model.observation_space.shape
         trained_env = record[1].get("env") if record is not None else None
-        if observation_shape is not None and shape != tuple(observation_shape):
+        if observation_shape is not None and shape != (*observation_shape[:-1], observation_shape[-1] * frame_stack):
             hint = f"; this model was trained on {trained_env}: pass --env {trained_env}" if trained_env else ""
-            raise ModelLoadError(f"{path}: trained on observations of shape {shape}, "
+            stacked = f" ({frame_stack} stacked)" if frame_stack > 1 else ""
+            raise ModelLoadError(f"{path}: trained on observations of shape {shape}{stacked}, "
                                  f"this env has {tuple(observation_shape)}{hint}")
-        normalizer = load_normalizer(stats, shape) if stats.is_file() else None
-        return cls(model, normalizer, f"{algo}:{run_name}/{path.stem}", trained_env)
+        normalizer = load_normalizer(stats, unstacked_shape(shape, frame_stack)) if stats.is_file() else None
+        return cls(model, normalizer, f"{algo}:{run_name}/{path.stem}", trained_env, frame_stack)
 
     def act(self, observation: np.ndarray) -> np.ndarray:
+        """The action for one observation (D,) or a batch (N, D) of episodes started together."""
         if self.normalizer is not None:
             observation = self.normalizer.normalize_obs(observation)
+        if self.frame_stack > 1:
+            if self.history is None:
+                self.history = np.zeros((*observation.shape[:-1], observation.shape[-1] * self.frame_stack),
+                                        self.model.observation_space.dtype)
+            # VecFrameStack's order: shift out the oldest, the newest last.
+            self.history = np.concatenate([self.history[..., observation.shape[-1]:], observation], axis=-1,
+                                          dtype=self.history.dtype)
+            observation = self.history
         action, _ = self.model.predict(observation, deterministic=True)
         return action
 
     def reset(self) -> None:
-        """Feed-forward policy: nothing to forget."""
+        """Forget the stacked observations: the next ``act`` starts an episode (or a batch of them)."""
+        self.history = None

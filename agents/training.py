@@ -43,13 +43,14 @@ from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback,
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.save_util import load_from_zip_file
 from stable_baselines3.common.utils import set_random_seed
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecMonitor, VecNormalize
+from stable_baselines3.common.vec_env import (DummyVecEnv, SubprocVecEnv, VecEnv, VecFrameStack, VecMonitor,
+                                              VecNormalize)
 
 import sail_env  # noqa: F401  (registers the env ids)
 from agents import cli
 from agents.cli import positive_int
-from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, load_hyperparams, load_normalizer, normalize_kwargs,
-                        normalizer_path, one_thread_per_process, save_model, versions)
+from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, frame_stack_of, load_hyperparams, load_normalizer,
+                        normalize_kwargs, normalizer_path, one_thread_per_process, save_model, unstacked_shape, versions)
 from agents.vec_env import BatchedVecEnv
 from sail_env.tasks import TASKS
 
@@ -65,13 +66,14 @@ PPO_DEFAULT_N_STEPS = inspect.signature(ALGOS["ppo"]).parameters["n_steps"].defa
 EvaluationHook = Callable[[int, float], None]
 CONFIG_KEYS = frozenset({"algo", "env", "seed", "vec_env", "eval_freq", "eval_episodes", "save_freq",
                          "hyperparams_file", "hyperparams"})
-#: YAML keys that set up the run rather than the algorithm.
-RUN_KEYS = frozenset({"n_envs", "n_timesteps", "normalize", "policy"})
+#: YAML keys that set up the run rather than the algorithm. ``frame_stack: k``: the policy sees the
+#: last k (normalised) observations side by side (VecFrameStack, as in RL Baselines3 Zoo).
+RUN_KEYS = frozenset({"n_envs", "n_timesteps", "normalize", "policy", "frame_stack"})
 #: The least value of each whole-number hyperparameter. Below it SB3 fails late and far from the
 #: YAML (n_steps 0 divides by zero, batch_size -3 trips an assert, n_epochs 0 an unbound local
 #: after the first rollout). batch_size 2: PPO normalises advantages over a batch (a batch of one
 #: divides by zero); one floor for every algorithm keeps one table. -1 means "as many as steps".
-WHOLE_NUMBER_MINIMUMS = {"n_timesteps": 1, "n_envs": 1, "n_steps": 1, "batch_size": 2, "n_epochs": 1,
+WHOLE_NUMBER_MINIMUMS = {"n_timesteps": 1, "n_envs": 1, "frame_stack": 1, "n_steps": 1, "batch_size": 2, "n_epochs": 1,
                          "buffer_size": 1, "learning_starts": 0, "train_freq": 1, "gradient_steps": -1,
                          "target_update_interval": 1, "policy_delay": 1, "sde_sample_freq": -1}
 #: The observations are a flat vector: the CNN and dict policies cannot take them.
@@ -203,8 +205,10 @@ def point_latest(run_dir: Path) -> None:
 
 
 def make_env(env_id: str, n_envs: int, seed: int, vec_env: str, normalize: dict[str, Any] | None,
-             gamma: float, training: bool) -> VecEnv:
-    """``n_envs`` seeded envs with episode statistics (success logged), maybe normalised.
+             gamma: float, training: bool, frame_stack: int = 1, statistics: Path | None = None) -> VecEnv:
+    """``n_envs`` seeded envs with episode statistics (success logged), maybe normalised (by the
+    VecNormalize ``statistics`` a checkpoint saved, when resuming), then with the last
+    ``frame_stack`` normalised observations stacked (VecFrameStack; 1: none).
 
     ``batched`` steps them as one ``LightSailVectorEnv`` behind :class:`BatchedVecEnv`;
     ``dummy`` and ``subproc`` are SB3's wrappers of single envs, with the same episodes.
@@ -217,11 +221,13 @@ def make_env(env_id: str, n_envs: int, seed: int, vec_env: str, normalize: dict[
         venv = make_vec_env(env_id, n_envs=n_envs, seed=seed,
                             vec_env_cls=SubprocVecEnv if vec_env == "subproc" and n_envs > 1 else DummyVecEnv,
                             monitor_kwargs={"info_keywords": ("is_success",)})
-    if normalize is None:
-        return venv
-    if not training:  # statistics are synced from the training env before each evaluation
-        return VecNormalize(venv, training=False, norm_reward=False, gamma=gamma)
-    return VecNormalize(venv, gamma=gamma, **normalize)
+    if normalize is not None and statistics is not None:
+        venv = VecNormalize.load(str(statistics), venv)
+    elif normalize is not None and not training:  # statistics are synced from the training env before each evaluation
+        venv = VecNormalize(venv, training=False, norm_reward=False, gamma=gamma)
+    elif normalize is not None:
+        venv = VecNormalize(venv, gamma=gamma, **normalize)
+    return VecFrameStack(venv, frame_stack) if frame_stack > 1 else venv
 
 
 def checkpoint_steps(path: Path) -> int:
@@ -245,13 +251,13 @@ def latest_checkpoint(run_dir: Path, normalized: bool = False) -> Path:
     return complete[-1]
 
 
-def checkpoint_problem(path: Path, normalized: bool) -> str | None:
+def checkpoint_problem(path: Path, normalized: bool, frame_stack: int = 1) -> str | None:
     """Why a complete checkpoint cannot be loaded (a whole zip around a damaged ``policy.pth``,
     statistics cut short), or None if it loads."""
     try:
         data, _, _ = load_from_zip_file(path, device="cpu", print_system_info=False)
         if normalized:
-            load_normalizer(normalizer_path(path), data["observation_space"].shape)
+            load_normalizer(normalizer_path(path), unstacked_shape(data["observation_space"].shape, frame_stack))
     except ModelLoadError as err:
         return str(err)
     except Exception as err:  # noqa: BLE001  (torch and pickle raise many types for damaged bytes)
@@ -259,12 +265,14 @@ def checkpoint_problem(path: Path, normalized: bool) -> str | None:
     return None
 
 
-def resumable_checkpoint(run_dir: Path, normalized: bool) -> Path:
-    """The newest complete checkpoint that loads. Falling back past damaged ones is said on stderr
-    in one line: the run then repeats the steps since the one it resumes from."""
+def resumable_checkpoint(run_dir: Path, hyperparams: dict[str, Any]) -> Path:
+    """The newest complete checkpoint of a run with these hyperparameters that loads. Falling back
+    past damaged ones is said on stderr in one line: the run then repeats the steps since the one
+    it resumes from."""
+    normalized = normalize_kwargs(hyperparams.get("normalize", False)) is not None
     damaged: list[str] = []
     for path in reversed(complete_checkpoints(run_dir, normalized)):
-        problem = checkpoint_problem(path, normalized)
+        problem = checkpoint_problem(path, normalized, frame_stack_of(hyperparams))
         if problem is None:
             if damaged:
                 print(f"warning: resuming from {path.name}: the newer checkpoint{'s' * (len(damaged) > 1)} "
@@ -373,7 +381,7 @@ def prepare(config: dict[str, Any], resume_dir: Path | None = None) -> Setup:
     algo, env_id, seed = config["algo"], config["env"], config["seed"]
     hp = config["hyperparams"]
     n_envs, normalize, gamma = int(hp.get("n_envs", 1)), normalize_kwargs(hp.get("normalize", False)), hp.get("gamma", 0.99)
-    resume_from = resumable_checkpoint(resume_dir, normalize is not None) if resume_dir is not None else None
+    resume_from = resumable_checkpoint(resume_dir, hp) if resume_dir is not None else None
     offset = checkpoint_steps(resume_from) if resume_from else 0
     total = whole_rollouts(algo, int(hp["n_timesteps"]), hp)
     if resume_from is not None and offset >= total:
@@ -381,15 +389,16 @@ def prepare(config: dict[str, Any], resume_dir: Path | None = None) -> Setup:
     one_thread_per_process()
     set_random_seed(seed)
 
-    # A resumed run draws new episodes: reseed by the step count it continues from.
-    train_env = make_env(env_id, n_envs, seed + offset, config["vec_env"], normalize, gamma, training=True)
+    # A resumed run draws new episodes: reseed by the step count it continues from; it continues
+    # the checkpoint's normalisation statistics (under the frame stack, if there is one).
+    statistics = normalizer_path(resume_from) if resume_from is not None and normalize is not None else None
+    train_env = make_env(env_id, n_envs, seed + offset, config["vec_env"], normalize, gamma, training=True,
+                         frame_stack=frame_stack_of(hp), statistics=statistics)
     # Every selection episode in one batch, one per environment: a step of the evaluation is one
     # call of the vector env and one of the policy, and episode i is reset(seed=eval seed + i) alone.
     eval_env = make_env(env_id, config["eval_episodes"], seed + EVAL_SEED_OFFSET, "batched", normalize, gamma,
-                        training=False)
+                        training=False, frame_stack=frame_stack_of(hp))
     try:
-        if resume_from is not None and normalize is not None:
-            train_env = VecNormalize.load(str(normalizer_path(resume_from)), train_env.venv)
         return Setup(build_model(config, train_env, resume_from), train_env, eval_env, resume_from)
     except BaseException:
         train_env.close()

@@ -30,7 +30,7 @@ from optuna.study import MaxTrialsCallback
 from optuna.trial import FrozenTrial, TrialState
 
 from agents import cli, grid, training
-from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, normalize_kwargs
+from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams
 from sail_env.tasks import TASKS
 
 ACTIVATIONS = {"tanh": "nn.Tanh", "relu": "nn.ReLU"}
@@ -130,9 +130,8 @@ def retried_folder(trial: optuna.Trial, config: dict[str, Any]) -> tuple[Path | 
     inherited = trial.user_attrs.get("run_dir")
     if inherited is None or not Path(inherited).is_dir():
         return None, None
-    normalized = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
     try:
-        return Path(inherited), training.resumable_checkpoint(Path(inherited), normalized)
+        return Path(inherited), training.resumable_checkpoint(Path(inherited), config["hyperparams"])
     except ModelLoadError:  # killed before its first checkpoint
         return training.fresh_dir(Path(inherited)), None
 

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 from agents import LQGAgent
 from agents import evaluation as evaluate
 from agents import training as train
-from agents.sb3 import SB3Agent, normalizer_path
+from agents.sb3 import ModelLoadError, SB3Agent, normalizer_path
 from sail_env.tasks import TASKS
 
 
@@ -38,6 +38,18 @@ def run_copy(model: Path, tmp_path: Path) -> Path:
     copy = tmp_path / "run"
     shutil.copytree(model.parent, copy)
     return copy / model.name
+
+
+@pytest.fixture(scope="module")
+def stacked_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A PPO model trained for a few hundred steps on the last three normalised observations (frame_stack: 3)."""
+    folder = tmp_path_factory.mktemp("stacked")
+    (folder / "fs.yml").write_text("LightSail-v0:\n  n_timesteps: 256\n  policy: MlpPolicy\n  normalize: true\n"
+                                   "  frame_stack: 3\n  n_steps: 64\n  batch_size: 64\n"
+                                   "  policy_kwargs: {net_arch: [16, 16]}\n")
+    assert train.main(["--algo", "ppo", "--timesteps", "256", "--n-envs", "2", "--eval-freq", "0",
+                       "--config", str(folder / "fs.yml"), "--out", str(folder / "run"), "--no-progress-bar"]) == 0
+    return folder / "run" / "final_model.zip"
 
 
 def _strict_json(path: Path) -> dict:
@@ -291,6 +303,51 @@ def test_a_model_of_another_observation_shape_names_its_task(model: Path, tmp_pa
                    capsys, monkeypatch)
     assert "trained on observations of shape (5,), this env has (9,)" in err
     assert "this model was trained on LightSail-v0: pass --env LightSail-v0" in err
+
+
+def test_a_frame_stacked_agent_sees_what_vec_frame_stack_showed_in_training(
+        stacked_model: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fed the raw observations, SB3Agent gives its model what training's VecFrameStack gave it
+    (oldest first, zeros before an episode's first; forgotten at reset), so it acts as the model
+    does on those; two episodes each in two environments, reset between them as evaluate.py does."""
+    agent = SB3Agent.load(stacked_model, (5,))
+    seen: list[np.ndarray] = []
+    predict = agent.model.predict
+    monkeypatch.setattr(agent.model, "predict", lambda obs, **kw: (seen.append(np.array(obs)), predict(obs, **kw))[1])
+    env = train.make_env("LightSail-v0", 2, 3, "batched", {}, 0.99, training=False, frame_stack=3)
+    env.venv.obs_rms = agent.normalizer.obs_rms  # the selection env, as EvalCallback syncs it
+    stacked, steps = env.reset(), 0
+    for _ in range(2):
+        done = np.zeros(2, dtype=bool)
+        while not done.any():
+            action = agent.act(env.venv.get_original_obs())
+            np.testing.assert_array_equal(seen[-1], stacked)
+            np.testing.assert_array_equal(action, predict(stacked, deterministic=True)[0])
+            stacked, _, done, _ = env.step(action)
+            steps += 1
+        stacked = env.reset()
+        agent.reset()
+    env.close()
+    assert steps > 6 and not np.any(seen[0][:, :10]) and np.all(seen[3][:, :10])
+
+
+def test_a_frame_stacked_agent_plays_one_episode_as_in_a_batch(stacked_model: Path) -> None:
+    """One observation (D,) at a time (the trajectory) or a batch (N, D): the same episode."""
+    agent = SB3Agent.load(stacked_model, (5,))
+    batched = evaluate.run_batch("LightSail-v0", agent, 2, 11)
+    for episode in batched:
+        alone = evaluate.run_episode(gym.make("LightSail-v0"), agent, episode["seed"])
+        assert alone["success"] == episode["success"] and np.isclose(alone["return"], episode["return"], rtol=1e-5)
+
+
+def test_a_frame_stacked_model_needs_its_run_json_to_know_the_stack(stacked_model: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "run"
+    shutil.copytree(stacked_model.parent, copy)
+    (copy / "run.json").unlink()
+    with pytest.raises(ModelLoadError, match=r"shape \(15,\), this env has \(5,\)"):
+        SB3Agent.load(copy / stacked_model.name, (5,))
+    with pytest.raises(ModelLoadError, match=r"shape \(15,\) \(3 stacked\), this env has \(9,\)"):
+        SB3Agent.load(stacked_model, (9,))
 
 
 def test_help_has_no_restructuredtext_markup(capsys: pytest.CaptureFixture) -> None:

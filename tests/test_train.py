@@ -51,6 +51,48 @@ def test_off_policy_resume_reloads_the_replay_buffer(tmp_path: Path) -> None:
     assert json.loads((out / "run.json").read_text())["sessions"][-1]["timesteps"] == 512
 
 
+def test_a_frame_stacked_run_trains_resumes_its_statistics_and_is_evaluated(tmp_path: Path) -> None:
+    """``frame_stack: 3``: the training and selection envs stack three normalised observations; a
+    resumed run continues the checkpoint's VecNormalize statistics under the stack; evaluate.py
+    plays the final model and a checkpoint."""
+    import numpy as np
+    from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
+
+    from agents import evaluation
+    from agents.sb3 import load_normalizer
+
+    (tmp_path / "fs.yml").write_text("LightSail-v0:\n  n_timesteps: 256\n  policy: MlpPolicy\n  normalize: true\n"
+                                     "  frame_stack: 3\n  n_steps: 64\n  batch_size: 64\n"
+                                     "  policy_kwargs: {net_arch: [16, 16]}\n")
+    out = tmp_path / "run"
+    assert train.main(["--algo", "ppo", "--timesteps", "256", "--config", str(tmp_path / "fs.yml"),
+                       "--out", str(out), *FAST]) == 0
+    assert PPO.load(out / "checkpoints/rl_model_256_steps.zip").observation_space.shape == (15,)
+    assert (out / "best_model.zip").is_file()  # selected on the stacked evaluation env
+
+    config = train.read_run(out)["config"]
+    config["hyperparams"]["n_timesteps"] = 512
+    saved = load_normalizer(out / "checkpoints/rl_model_vecnormalize_256_steps.pkl", (5,))
+    setup = train.prepare(config, out)
+    try:
+        assert isinstance(setup.train_env, VecFrameStack) and isinstance(setup.eval_env, VecFrameStack)
+        normalizer = setup.train_env.venv
+        assert isinstance(normalizer, VecNormalize) and not isinstance(normalizer.venv, VecNormalize)
+        assert setup.model.get_vec_normalize_env() is normalizer and normalizer.training
+        np.testing.assert_array_equal(normalizer.obs_rms.mean, saved.obs_rms.mean)
+        assert normalizer.obs_rms.count == saved.obs_rms.count > 256
+    finally:
+        setup.close()
+
+    assert train.main(["--resume", str(out), "--timesteps", "512", "--no-progress-bar"]) == 0
+    assert PPO.load(out / "final_model.zip").num_timesteps == 512
+    report = tmp_path / "report"
+    assert evaluation.main(["--agent", str(out / "final_model.zip"), "--agent",
+                            str(out / "checkpoints/rl_model_512_steps.zip"), "--episodes", "2",
+                            "--out", str(report), "--no-progress-bar"]) == 0
+    assert len(json.loads((report / "report.json").read_text())["agents"]) == 2
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_or_sigterm_saves_a_checkpoint_that_resume_continues(tmp_path: Path, signum: int) -> None:
     out = tmp_path / "run"
@@ -110,6 +152,10 @@ def test_bad_arguments_are_a_one_line_error(argv: list[str], message: str, capsy
     ("  n_timesteps: 100\n  n_epochs: 2.5\n", "n_epochs must be a whole number >= 1, got 2.5"),
     ("  n_timesteps: 100\n  policy: NopePolicy\n", "policy must be MlpPolicy"),
     ("  - n_timesteps: 100\n", "the entry must be a mapping of hyperparameters"),
+    ("  n_timesteps: 100\n  frame_stack: 0\n", "frame_stack must be a whole number >= 1, got 0"),
+    ("  n_timesteps: 100\n  frame_stack: 2.5\n", "frame_stack must be a whole number >= 1, got 2.5"),
+    ("  n_timesteps: 100\n  frame_stack: true\n", "frame_stack must be a whole number >= 1, got True"),
+    ("  n_timesteps: 100\n  frame_stack: four\n", "frame_stack must be a whole number >= 1, got 'four'"),
     # Passes the checks, refused by SB3's constructor: the model is built before any folder is made.
     ("  n_timesteps: 100\n  clip_range_vf: -1.0\n", "ppo does not accept these hyperparameters"),
 ])
