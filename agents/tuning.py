@@ -49,7 +49,8 @@ def sample_ppo(trial: optuna.Trial) -> dict[str, Any]:
             "gae_lambda": trial.suggest_categorical("gae_lambda", [0.9, 0.95, 0.98]),
             "clip_range": trial.suggest_categorical("clip_range", [0.1, 0.2, 0.3]),
             "ent_coef": trial.suggest_float("ent_coef", 1e-8, 1e-2, log=True),
-            "normalize": True, "policy_kwargs": network(trial, f", log_std_init={log_std:.3f}")}
+            "normalize": True, "frame_stack": history(trial),
+            "policy_kwargs": network(trial, f", log_std_init={log_std:.3f}")}
 
 
 def sample_off_policy(trial: optuna.Trial) -> dict[str, Any]:
@@ -62,7 +63,8 @@ def sample_off_policy(trial: optuna.Trial) -> dict[str, Any]:
             "learning_starts": trial.suggest_categorical("learning_starts", [100, 1000, 5000]),
             "gamma": trial.suggest_categorical("gamma", [0.98, 0.99, 0.995, 0.999]),
             "tau": trial.suggest_categorical("tau", [0.005, 0.01, 0.02, 0.05]),
-            "train_freq": train_freq, "gradient_steps": train_freq, "policy_kwargs": network(trial, "")}
+            "train_freq": train_freq, "gradient_steps": train_freq, "frame_stack": history(trial),
+            "policy_kwargs": network(trial, "")}
 
 
 def sample_td3(trial: optuna.Trial) -> dict[str, Any]:
@@ -71,6 +73,12 @@ def sample_td3(trial: optuna.Trial) -> dict[str, Any]:
 
 
 SAMPLERS = {"ppo": sample_ppo, "sac": sample_off_policy, "td3": sample_td3}
+
+
+def history(trial: optuna.Trial) -> int:
+    """Observations the policy sees side by side (``frame_stack``; 1: the newest alone): a history
+    lets the policy average delayed, noisy observations, as the LQG's Kalman filter does."""
+    return trial.suggest_categorical("frame_stack", [1, 2, 4, 8])
 
 
 def network(trial: optuna.Trial, extra: str) -> str:

@@ -3,6 +3,7 @@ each agent's paired difference to LQG with a 95 % interval (docs/physics.md §16
 
     python -m benchmarks.ceiling                                   # both realistic tasks, 200 episodes
     python -m benchmarks.ceiling --env LightSailUncertain-v0 --agent lqg-robust --episodes 400
+    python -m benchmarks.ceiling --env LightSailRealistic-v0 --agent runs/X/best_model.zip --episodes 500
 
 Every agent plays episodes ``seed … seed + n − 1`` (``evaluate.py``'s runner and default seeds), so
 the comparison is paired. For agent A against LQG: the difference of success rates, a 95 % paired
@@ -25,7 +26,7 @@ import numpy as np
 import scipy.stats
 
 import sail_env  # noqa: F401
-from agents.evaluation import BASELINES, DEFAULT_SEED, run_agent, summarise
+from agents.evaluation import BASELINES, DEFAULT_SEED, make_agent, run_agent, summarise
 from agents.sb3 import one_thread_per_process
 
 DEFAULT_ENVS = ("LightSailRealistic-v0", "LightSail3DRealistic-v1")
@@ -61,11 +62,11 @@ def measure(env_id: str, agents: list[str], episodes: int, seed: int, out: Path,
                                                                            if k != "agents"}:
         results[key] = fresh  # other episodes: start afresh; the same ones: add agents to them
     entry = results[key]
-    spec = gym.make(env_id, **(env_kwargs or {})).unwrapped.episode_spec
+    env = gym.make(env_id, **(env_kwargs or {}))
     outcomes: dict[str, np.ndarray] = {}
     for name in agents:
         start = time.perf_counter()
-        played = run_agent(env_id, BASELINES[name](spec), episodes, seed, progress=False, env_kwargs=env_kwargs)
+        played = run_agent(env_id, make_agent(name, env), episodes, seed, progress=False, env_kwargs=env_kwargs)
         outcomes[name] = np.array([e["success"] for e in played])
         entry["agents"][name] = {**summarise(played), "seconds": round(time.perf_counter() - start, 1),
                                  "success": outcomes[name].astype(int).tolist()}
@@ -95,8 +96,9 @@ def table(entry: dict[str, Any]) -> str:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", action="append", help=f"task ids (default: {', '.join(DEFAULT_ENVS)})")
-    parser.add_argument("--agent", action="append", choices=sorted(BASELINES),
-                        help=f"agents (default: {', '.join(DEFAULT_AGENTS)})")
+    parser.add_argument("--agent", action="append",
+                        help=f"{', '.join(sorted(BASELINES))} or a model .zip saved by train.py "
+                             f"(default: {', '.join(DEFAULT_AGENTS)})")
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED)
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/ceiling.json"))

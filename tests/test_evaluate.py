@@ -394,3 +394,16 @@ def test_the_plots_name_their_env_the_3d_axis_and_coinciding_curves(tmp_path: Pa
     assert all("LightSail3D-v0" in [t.get_text() for t in fig.texts] for fig in figures)
     assert "lqr = lqg" in pointing.axes[0].get_title(loc="right")
     assert "total tilt" in tilt.axes[0].get_xlabel()
+
+
+def test_the_ceiling_benchmark_pairs_a_trained_model_with_lqg(model: Path, tmp_path: Path) -> None:
+    """benchmarks.ceiling takes a model path beside the baselines: its row holds its episodes'
+    successes and its paired difference to LQG, which is the difference of the two rates."""
+    from benchmarks import ceiling
+
+    out = tmp_path / "ceiling.json"
+    ceiling.main(["--env", "LightSail-v0", "--agent", "lqg", "--agent", str(model), "--episodes", "6", "--out", str(out)])
+    rows = json.loads(out.read_text())["LightSail-v0"]["agents"]
+    learned, lqg = rows[str(model)], rows["lqg"]
+    assert len(learned["success"]) == 6 and learned["episodes"] == 6
+    assert learned["vs_lqg"]["difference"] == pytest.approx(learned["success_rate"] - lqg["success_rate"])

@@ -1,0 +1,105 @@
+"""Learning curves of train.py runs: selection success against env steps, over seeds.
+
+    python -m benchmarks.learning_curves --env LightSailRealistic-v0 \
+        --runs "PPO tuned=runs/tuned/ppo-realistic-v0-seed*" \
+        --runs "PPO tuned, frame_stack 4=runs/tuned/ppo-realistic-v0-fs4-seed*" \
+        --report reports/realistic-v0-tuned/report.json --out docs/images/learning-curve-realistic-v0.png
+
+Each ``--runs LABEL=GLOB`` is one configuration: the runs its glob matches are its seeds. A run's
+``evaluations.npz`` (SB3's EvalCallback log, written by train.py) holds the success of every
+selection episode at every evaluation; the curve is the mean over seeds of each evaluation's
+success rate, the band its range over seeds. Evaluations are compared at the steps every seed
+reached. With ``--report`` (an ``evaluate.py`` report.json) the classical agents' success rates on
+the report's episodes are drawn as horizontal lines (LQG and the ceiling: ``lqr-oracle``,
+``lqg-oracle``), labelled with their episode count: the selection episodes are other episodes, so
+the lines are a reference level, not a paired comparison.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from agents import cli  # noqa: E402
+
+#: The report's agents drawn as reference lines, and their labels.
+REFERENCES = {"lqg": "LQG", "lqr-oracle": "ceiling: LQR oracle", "lqg-oracle": "ceiling: LQG oracle"}
+
+
+def curves(pattern: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """The evaluation steps every run of ``pattern`` reached, the success rates (seeds, steps), the runs."""
+    runs = sorted(p for p in glob.glob(pattern) if (Path(p) / "evaluations.npz").is_file())
+    if not runs:
+        raise cli.UsageError(f"--runs {pattern!r}: no run with an evaluations.npz")
+    logs = [np.load(Path(run) / "evaluations.npz") for run in runs]
+    common = min(len(log["timesteps"]) for log in logs)
+    steps = logs[0]["timesteps"][:common]
+    for run, log in zip(runs, logs):
+        if not np.array_equal(log["timesteps"][:common], steps):
+            raise cli.UsageError(f"{run}: evaluated at other steps than {runs[0]}")
+    return steps, np.stack([log["successes"][:common].mean(axis=1) for log in logs]), runs
+
+
+def reference_rates(report: Path) -> dict[str, tuple[float, int]]:
+    """Success rate and episode count of each reference agent in an evaluate.py report."""
+    agents = json.loads(report.read_text())["agents"]
+    return {label: (agents[name]["success_rate"], agents[name]["episodes"])
+            for name, label in REFERENCES.items() if name in agents}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = cli.Parser(prog="python -m benchmarks.learning_curves", description=cli.describe(__doc__),
+                        formatter_class=cli.HelpFormatter)
+    parser.add_argument("--env", required=True, help="the task the runs trained on (the plot's title)")
+    parser.add_argument("--runs", action="append", required=True, metavar="LABEL=GLOB",
+                        help="a configuration's runs, one per seed; repeat to compare")
+    parser.add_argument("--report", type=Path, help="an evaluate.py report.json for the reference lines")
+    parser.add_argument("--out", type=Path, required=True, help="the PNG to write")
+    try:
+        args = parser.parse_args(argv)
+        configs = []
+        for item in args.runs:
+            label, sep, pattern = item.partition("=")
+            if not sep or not label or not pattern:
+                raise cli.UsageError(f"--runs {item!r}: expected LABEL=GLOB")
+            configs.append((label, *curves(pattern)))
+        references = reference_rates(args.report) if args.report is not None else {}
+        cli.check_writable_dir(args.out.parent, "--out")
+    except (cli.UsageError, OSError, KeyError, json.JSONDecodeError) as err:
+        return cli.fail(err)
+
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    for label, steps, rates, runs in configs:
+        line, = ax.plot(steps, 100 * rates.mean(axis=0), label=f"{label} (mean of {len(runs)} seeds, range shaded)")
+        ax.fill_between(steps, 100 * rates.min(axis=0), 100 * rates.max(axis=0), color=line.get_color(), alpha=0.2)
+    for (label, (rate, episodes)), style in zip(references.items(), ("--", ":", "-.")):
+        ax.axhline(100 * rate, color="k", linestyle=style, linewidth=1, label=f"{label}: {rate:.1%} ({episodes} episodes)")
+    ax.set_xlabel("env steps")
+    ax.set_ylabel("selection success [%]")
+    ax.set_title(f"{args.env}: success of the deterministic policy on the selection episodes")
+    ax.set_ylim(0, 100)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(args.out, dpi=110)
+    for label, steps, rates, runs in configs:
+        last = rates[:, -1]
+        print(f"{label}: {len(runs)} seeds to {steps[-1]:,} steps; last evaluation {100 * last.mean():.1f} % "
+              f"(seeds {', '.join(f'{100 * r:.0f}' for r in last)}); best of each seed "
+              f"{', '.join(f'{100 * r:.0f}' for r in rates.max(axis=1))} %")
+    print(f"-> {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
