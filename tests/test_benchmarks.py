@@ -3,6 +3,7 @@ library, and a refactoring that breaks them fails here rather than when someone 
 
 import json
 
+import numpy as np
 import pytest
 
 from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed
@@ -83,3 +84,24 @@ def test_first_try_trains_evaluates_and_appends_one_json_line(tmp_path, capsys):
     (table,) = first_try.main(["--noise-table", "--eval-episodes", "2", "--out", str(out)])
     assert table["rows"][0] == {"sigma": 0.0, "success": 1.0, "return": table["rows"][0]["return"]}
     assert len(out.read_text().splitlines()) == 2
+
+
+def test_learning_curves_average_the_seeds_and_draw_the_report_lines(tmp_path, capsys):
+    """Two seeds' evaluations.npz (one evaluated further than the other) and an evaluate.py report:
+    the curve stops at the steps both reached, and the printed summary is their mean."""
+    from benchmarks import learning_curves
+
+    for seed, rates in enumerate(([0.2, 0.6, 0.8], [0.4, 0.8])):
+        run = tmp_path / f"run-seed{seed}"
+        run.mkdir()
+        successes = np.array([[1] * round(10 * r) + [0] * (10 - round(10 * r)) for r in rates])
+        np.savez(run / "evaluations.npz", timesteps=10_000 * np.arange(1, len(rates) + 1), successes=successes)
+    report = tmp_path / "report.json"
+    report.write_text(json.dumps({"agents": {"lqg": {"success_rate": 0.84, "episodes": 500}}}))
+    out = tmp_path / "curve.png"
+    assert learning_curves.main(["--env", "LightSail-v0", "--runs", f"PPO={tmp_path}/run-seed*",
+                                 "--report", str(report), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "2 seeds to 20,000 steps; last evaluation 70.0 % (seeds 60, 80)" in printed
+    assert out.stat().st_size > 10_000
+    assert learning_curves.main(["--env", "LightSail-v0", "--runs", "no-equals-sign", "--out", str(out)]) == 2
