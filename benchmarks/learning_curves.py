@@ -3,16 +3,16 @@
     python -m benchmarks.learning_curves --env LightSailRealistic-v0 \
         --runs "PPO tuned=runs/tuned/ppo-realistic-v0-seed*" \
         --runs "PPO tuned, frame_stack 4=runs/tuned/ppo-realistic-v0-fs4-seed*" \
-        --report reports/realistic-v0-tuned/report.json --out docs/images/learning-curve-realistic-v0.png
+        --report benchmarks/results/learners_realistic_v0.json --out docs/images/learning-curve-realistic-v0.png
 
 Each ``--runs LABEL=GLOB`` is one configuration: the runs its glob matches are its seeds. A run's
 ``evaluations.npz`` (SB3's EvalCallback log, written by train.py) holds the success of every
 selection episode at every evaluation; the curve is the mean over seeds of each evaluation's
 success rate, the band its range over seeds. Evaluations are compared at the steps every seed
-reached. With ``--report`` (an ``evaluate.py`` report.json) the classical agents' success rates on
-the report's episodes are drawn as horizontal lines (LQG and the ceiling: ``lqr-oracle``,
-``lqg-oracle``), labelled with their episode count: the selection episodes are other episodes, so
-the lines are a reference level, not a paired comparison.
+reached. With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
+classical agents' success rates on the report's episodes are drawn as horizontal lines (LQG and the
+ceiling: ``lqr-oracle``, ``lqg-oracle``), labelled with their episode count: the selection episodes
+are other episodes, so the lines are a reference level, not a paired comparison.
 """
 
 from __future__ import annotations
@@ -49,9 +49,11 @@ def curves(pattern: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
     return steps, np.stack([log["successes"][:common].mean(axis=1) for log in logs]), runs
 
 
-def reference_rates(report: Path) -> dict[str, tuple[float, int]]:
-    """Success rate and episode count of each reference agent in an evaluate.py report."""
-    agents = json.loads(report.read_text())["agents"]
+def reference_rates(report: Path, env_id: str) -> dict[str, tuple[float, int]]:
+    """Success rate and episode count of each reference agent in an evaluate.py report.json or in
+    ``benchmarks.ceiling``'s results (the entry of ``env_id``)."""
+    record = json.loads(report.read_text())
+    agents = record["agents"] if "agents" in record else record[env_id]["agents"]
     return {label: (agents[name]["success_rate"], agents[name]["episodes"])
             for name, label in REFERENCES.items() if name in agents}
 
@@ -62,7 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--env", required=True, help="the task the runs trained on (the plot's title)")
     parser.add_argument("--runs", action="append", required=True, metavar="LABEL=GLOB",
                         help="a configuration's runs, one per seed; repeat to compare")
-    parser.add_argument("--report", type=Path, help="an evaluate.py report.json for the reference lines")
+    parser.add_argument("--report", type=Path,
+                        help="an evaluate.py report.json or benchmarks.ceiling's JSON, for the reference lines")
     parser.add_argument("--out", type=Path, required=True, help="the PNG to write")
     try:
         args = parser.parse_args(argv)
@@ -72,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
             if not sep or not label or not pattern:
                 raise cli.UsageError(f"--runs {item!r}: expected LABEL=GLOB")
             configs.append((label, *curves(pattern)))
-        references = reference_rates(args.report) if args.report is not None else {}
+        references = reference_rates(args.report, args.env) if args.report is not None else {}
         cli.check_writable_dir(args.out.parent, "--out")
     except (cli.UsageError, OSError, KeyError, json.JSONDecodeError) as err:
         return cli.fail(err)
