@@ -89,8 +89,11 @@ def network(trial: optuna.Trial, extra: str) -> str:
 
 
 def trial_config(trial: optuna.Trial, algo: str, env_id: str, settings: dict[str, Any]) -> dict[str, Any]:
-    """train.py's configuration of one trial."""
-    hp = {"policy": "MlpPolicy", "n_timesteps": settings["timesteps"], **SAMPLERS[algo](trial)}
+    """train.py's configuration of one trial. A retried trial trains its original's hyperparameters
+    (inherited with its user attributes), not a new draw: a search space widened since (as by
+    ``frame_stack``) would otherwise add a drawn value and train another configuration."""
+    hp = trial.user_attrs.get("hyperparams") or {"policy": "MlpPolicy", "n_timesteps": settings["timesteps"],
+                                                  **SAMPLERS[algo](trial)}
     return {"algo": algo, "env": env_id, "seed": settings["seed"], "vec_env": "batched",
             "eval_freq": settings["eval_freq"], "eval_episodes": settings["eval_episodes"],
             "save_freq": settings["eval_freq"], "hyperparams_file": f"(optuna trial {trial.number})",

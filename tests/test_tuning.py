@@ -96,10 +96,15 @@ def test_a_stopped_trial_is_queued_again_and_resumes_its_checkpoint(tmp_path: Pa
     run_dir = Path(stopped.user_attrs["run_dir"])
     assert training.read_run(run_dir)["sessions"][0]["status"] == "interrupted"
 
-    monkeypatch.setitem(training._stop, "requested", None)  # the next session
+    monkeypatch.setitem(training._stop, "requested", None)  # the next session, with a wider search space
+    sample = tuning.SAMPLERS["ppo"]
+    monkeypatch.setitem(tuning.SAMPLERS, "ppo", lambda trial: {**sample(trial),
+                                                               "n_epochs": trial.suggest_int("new_knob", 1, 2)})
     study = tuning.tune("ppo", "LightSail-v0", storage, "r", 1, SETTINGS, tmp_path / "runs")
     (done,) = study.get_trials(states=(TrialState.COMPLETE,))
     assert done.number == queued.number and done.user_attrs["run_dir"] == str(run_dir)
+    # The retry trained its original's configuration, not a new draw of the wider space.
+    assert done.user_attrs["hyperparams"] == stopped.user_attrs["hyperparams"] and "new_knob" not in done.params
     sessions = training.read_run(run_dir)["sessions"]
     assert [s["status"] for s in sessions] == ["interrupted", "finished"]
     assert sessions[1]["start_timesteps"] == sessions[0]["timesteps"] > 0
