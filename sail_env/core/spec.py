@@ -233,9 +233,10 @@ class EpisodeSpec:
 def task_spec(make_plant: PlantFactory, default_start_half_widths: Sequence[float], *,
               start_half_widths: Sequence[float] | None = None, max_beam_offset_m: float = 0.02,
               max_beam_tilt_rad: float = 2e-3, **disturbances: object) -> EpisodeSpec:
-    """The spec of an env's episode keywords: the beam limits, the start box (the plant's default
-    unless given) and the :class:`Disturbances` by their field names. The one place every env's
-    shared keywords are spelled out (their table is in :class:`Disturbances` and the env docstrings)."""
+    """The spec of an env's episode keywords: the beam limits, the start box (the env's
+    ``default_start_half_widths`` unless given) and the :class:`Disturbances` by their field names.
+    The one place every env's shared keywords are spelled out (their table is in
+    :class:`Disturbances` and the env docstrings); an unknown one is a ``TypeError`` naming it."""
     unknown = sorted(set(disturbances) - {field.name for field in dataclasses.fields(Disturbances)})
     if unknown:
         raise TypeError(f"unexpected keyword argument {unknown[0]!r}")
