@@ -279,3 +279,10 @@ def test_frames_show_the_window_from_reset_and_keep_the_sail_in_its_panel(env_id
     env.step(env.action_space.sample())
     assert env.render().shape == frame.shape
     env.close()
+
+
+@pytest.mark.parametrize("env_id", ["LightSail-v0", "LightSail3D-v0"])
+def test_an_unknown_keyword_is_named(env_id):
+    """The keywords are spelled out once (core.spec.task_spec); a misspelt one is named, not swallowed."""
+    with pytest.raises(TypeError, match="unexpected keyword argument 'beam_jiter_m'"):
+        gym.make(env_id, beam_jiter_m=1e-3)
