@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.env_util import make_vec_env
@@ -421,11 +422,14 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
                                                 CHECKPOINT_PREFIX, save_replay_buffer=True, save_vecnormalize=True))
         if config["eval_freq"] > 0:
             setup.eval_env.seed(seed + EVAL_SEED_OFFSET)
-            callbacks.append(EvalCallback(
+            evaluator = EvalCallback(
                 setup.eval_env, n_eval_episodes=config["eval_episodes"],
                 eval_freq=max(config["eval_freq"] // n_envs, 1), log_path=str(run_dir), best_model_save_path=None,
                 deterministic=True, verbose=0,
-                callback_after_eval=KeepBestBySuccess(run_dir, seed + EVAL_SEED_OFFSET, on_evaluation)))
+                callback_after_eval=KeepBestBySuccess(run_dir, seed + EVAL_SEED_OFFSET, on_evaluation))
+            if setup.resumed_from is not None:
+                continue_history(evaluator, run_dir / "evaluations.npz", model.num_timesteps)
+            callbacks.append(evaluator)
 
         sessions = read_run(run_dir)["sessions"] if setup.resumed_from else []
         session = {"command": command, "status": "running", "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
@@ -453,6 +457,21 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
     finally:
         setup.close()
     return session
+
+
+def continue_history(evaluator: EvalCallback, log: Path, resumed_at: int) -> None:
+    """Give a resumed run's EvalCallback the evaluations up to its checkpoint: it starts
+    ``evaluations.npz`` afresh, and a resumed run's learning curve lost everything before the resume.
+    Evaluations after the checkpoint (the interrupted session's last ones) are played again."""
+    if not log.is_file():
+        return
+    with np.load(log) as past:
+        kept = past["timesteps"] <= resumed_at
+        evaluator.evaluations_timesteps = past["timesteps"][kept].tolist()
+        evaluator.evaluations_results = past["results"][kept].tolist()
+        evaluator.evaluations_length = past["ep_lengths"][kept].tolist()
+        if "successes" in past:
+            evaluator.evaluations_successes = past["successes"][kept].tolist()
 
 
 def train(config: dict[str, Any], run_dir: Path, command: str, resume: bool = False, progress_bar: bool = False,

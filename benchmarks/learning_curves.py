@@ -9,7 +9,7 @@ Each ``--runs LABEL=GLOB`` is one configuration: the runs its glob matches are i
 ``evaluations.npz`` (SB3's EvalCallback log, written by train.py) holds the success of every
 selection episode at every evaluation; the curve is the mean over seeds of each evaluation's
 success rate, the band its range over seeds. Evaluations are compared at the steps every seed
-reached. With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
+reached, up to the first where their steps differ (a resumed run evaluates at shifted steps). With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
 classical agents' success rates on the report's episodes are drawn as horizontal lines (LQG and the
 ceiling: ``lqr-oracle``, ``lqg-oracle``), labelled with their episode count: the selection episodes
 are other episodes, so the lines are a reference level, not a paired comparison.
@@ -43,9 +43,12 @@ def curves(pattern: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
     logs = [np.load(Path(run) / "evaluations.npz") for run in runs]
     common = min(len(log["timesteps"]) for log in logs)
     steps = logs[0]["timesteps"][:common]
-    for run, log in zip(runs, logs):
-        if not np.array_equal(log["timesteps"][:common], steps):
-            raise cli.UsageError(f"{run}: evaluated at other steps than {runs[0]}")
+    for log in logs:  # a resumed run evaluates at shifted steps after its resume: stop there
+        same = log["timesteps"][:common] == steps
+        common = common if same.all() else int(np.argmin(same))
+        steps = steps[:common]
+    if not common:
+        raise cli.UsageError(f"--runs {pattern!r}: the runs share no evaluation step")
     return steps, np.stack([log["successes"][:common].mean(axis=1) for log in logs]), runs
 
 

@@ -12,6 +12,7 @@ import time
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 from stable_baselines3 import PPO
 
@@ -38,6 +39,9 @@ def test_train_writes_a_complete_run_and_resume_continues_the_counter(tmp_path: 
     assert PPO.load(out / "final_model.zip").num_timesteps == 1024
     sessions = json.loads((out / "run.json").read_text())["sessions"]
     assert [s["start_timesteps"] for s in sessions] == [0, 512]
+    # The evaluation history spans both sessions (the resumed EvalCallback used to start it afresh).
+    with np.load(out / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [256, 512, 768, 1024] and log["successes"].shape == (4, 2)
 
 
 def test_off_policy_resume_reloads_the_replay_buffer(tmp_path: Path) -> None:
