@@ -440,7 +440,7 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
         try:
             model.learn(total - model.num_timesteps, callback=callbacks, tb_log_name="tb",
                         reset_num_timesteps=setup.resumed_from is None, progress_bar=progress_bar)
-            if stop_requested() is not None:
+            if stop_requested() is not None and model.num_timesteps < total:  # a signal in the last step: finished
                 status = "interrupted"
         except KeyboardInterrupt:
             status = "interrupted"

@@ -407,3 +407,19 @@ def test_the_selection_episodes_run_as_one_batch_each_from_its_own_seed(tmp_path
             assert np.isclose(total, batched, rtol=1e-5), i
     finally:
         setup.close()
+
+
+def test_a_signal_during_the_last_step_leaves_the_run_finished(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Nothing is left to resume when the signal lands in the budget's last step: the run is finished,
+    with its final model, not 'interrupted' with a resume hint that could only fail."""
+    def signal_at_the_end(self) -> bool:
+        if self.num_timesteps >= 256:
+            train._stop["requested"] = "SIGTERM"
+        return True
+
+    monkeypatch.setitem(train._stop, "requested", None)
+    monkeypatch.setattr(train.StopOnSignal, "_on_step", signal_at_the_end)
+    out = tmp_path / "run"
+    assert train.main(["--algo", "ppo", "--timesteps", "256", "--out", str(out), *FAST]) == 0
+    assert json.loads((out / "run.json").read_text())["sessions"][0]["status"] == "finished"
+    assert (out / "final_model.zip").is_file()
