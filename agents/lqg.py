@@ -1,9 +1,10 @@
 """LQG with light-delay compensation: the classical reference for LightSailRealistic-v0.
 
 * A steady-state Kalman filter on the exact discretisation estimates the state the
-  (delayed, noisy) observation shows. Process noise: the beam jitter through the
-  input matrix, the push noise at the state scale, and a floor for the ±10 % model
-  mismatch.
+  (delayed, noisy) observation shows. Process noise: every beam offset (the landing
+  and the ground's pointing jitter) through the input matrix and the dust's kicks, as the spec
+  sizes them (``EpisodeSpec.window_step_noise``), the push noise at the state scale, and a floor
+  for the ±10 % model mismatch.
 * The estimate is predicted forward, through the commands the agent already sent
   (still in flight or already acting), to the step its new command will reach the sail,
   with the episode core's delay rule (``EpisodeSpec.delay_steps``).
@@ -71,8 +72,7 @@ def lqg_design(spec: EpisodeSpec, a: np.ndarray, b: np.ndarray, constant: np.nda
     dist = spec.disturbances
     a_push, _ = spec.nominal.push_sensitivity
     push_kick = a_push @ scale * dt
-    jitter = gamma[:, list(spec.plant.jitter_inputs)]
-    process = (dist.beam_jitter_m**2 * jitter @ jitter.T
+    process = (spec.window_step_noise(gamma)
                + dist.push_noise**2 * np.outer(push_kick, push_kick)
                + np.diag((model_mismatch * scale) ** 2))
     sensor = np.diag(np.maximum(spec.sensor_noise_std, 1e-6 * scale) ** 2)

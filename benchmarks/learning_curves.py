@@ -17,7 +17,6 @@ are other episodes, so the lines are a reference level, not a paired comparison.
 
 from __future__ import annotations
 
-import argparse
 import glob
 import json
 import sys

@@ -164,8 +164,7 @@ class EpisodeCore:
         pre_pieces = plant.coast_pieces(params, pre_control) * np.ones(k, dtype=np.int64) if plant.noisy \
             else np.zeros(k, dtype=np.int64)
         if self._impacts:
-            middle = spec.config.control_start_s + 0.5 * spec.n_steps * spec.dt
-            impact_rate, state.impact_std[index] = plant.impact_rate_and_std(params, np.full(k, middle))
+            impact_rate, state.impact_std[index] = plant.impact_rate_and_std(params, np.full(k, spec.window_middle_s))
         if self._jittered:
             columns = np.arange(self.noise_steps)
             middles = spec.config.control_start_s + (columns - lag0[:, None] + 0.5) * spec.dt

@@ -12,6 +12,7 @@ import numpy as np
 from sail_env.core.delay import delay_steps
 from sail_env.core.plant import Plant
 from sail_env.physics.config import check_below_light_speed, real_number
+from sail_env.physics.disturbance import Disturbance, split_keywords
 from sail_env.physics.mission import one_way_light_delay_s
 
 #: Observation scales: the state is divided by these (rates by the model's fastest rate too).
@@ -24,8 +25,9 @@ TIME_TOLERANCE_S = 1e-9
 #: its accuracy there).
 MAX_PUSH_NOISE = 0.25
 #: What builds a task's plant from its physical disturbances: ``make_plant(parameter_spread,
-#: beam_jitter_m, push_noise)``, e.g. ``functools.partial(PlanarPlant, config)``.
-PlantFactory = Callable[[float, float, float], Plant]
+#: push_noise, sources)`` (``sources``: :attr:`Disturbances.sources`), e.g.
+#: ``functools.partial(PlanarPlant, config)``.
+PlantFactory = Callable[[float, float, tuple[Disturbance, ...]], Plant]
 #: Largest ``parameter_spread`` (exclusive): a factor ``1 − s`` must leave every length and mass positive.
 MAX_PARAMETER_SPREAD = 0.5
 
@@ -49,9 +51,6 @@ class Disturbances:
         sensor_noise_std: Standard deviation of the measurement of each state component
             (planar ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``; one per state of the plant),
             white, per observation (any finite size: the observation saturates at ±1e3).
-        beam_jitter_m: Standard deviation of the beam's landing offset per control step
-            (white, held for the step); over the coast the same spectral density
-            ``σ² dt`` acts as continuous white noise. At most the aperture radius.
         push_noise: Relative standard deviation of the push ``F`` per control step; the
             same spectral density acts over the coast. At most :data:`MAX_PUSH_NOISE`.
         cutoff_jitter_s: Half-width of a uniform draw of the beam cut-off time around
@@ -63,20 +62,23 @@ class Disturbances:
         parameter_spread: Relative half-width of a uniform per-episode draw of each mass,
             the strut and CoM lengths and the radius of curvature, in ``[0, 0.5)``; every
             draw must be a valid :class:`SailConfig` (checked at the corners of the box).
+        sources: The registered random disturbances (:mod:`sail_env.physics.disturbances`: the
+            beam's landing jitter ``beam_jitter_m``, the ground's pointing jitter, dust), which
+            the plant carries; :func:`task_spec` makes them of their keywords.
 
     Numbers may be ints, floats or NumPy real scalars; bools and strings are refused.
     """
 
     sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    beam_jitter_m: float = 0.0
     push_noise: float = 0.0
     cutoff_jitter_s: float = 0.0
     light_delay: bool = False
     parameter_spread: float = 0.0
+    sources: tuple[Disturbance, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sensor_noise_std", finite_nonnegative(self.sensor_noise_std, "sensor_noise_std"))
-        for name in ("beam_jitter_m", "push_noise", "cutoff_jitter_s", "parameter_spread"):
+        for name in ("push_noise", "cutoff_jitter_s", "parameter_spread"):
             value = real_number(getattr(self, name), name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {value}")
@@ -89,6 +91,9 @@ class Disturbances:
                              f"got {self.push_noise}")
         if not self.parameter_spread < MAX_PARAMETER_SPREAD:
             raise ValueError(f"parameter_spread must be in [0, {MAX_PARAMETER_SPREAD}), got {self.parameter_spread}")
+        if not all(isinstance(source, Disturbance) for source in self.sources):
+            raise ValueError(f"sources must be Disturbance instances (sail_env.physics.disturbances), got {self.sources!r}")
+        object.__setattr__(self, "sources", tuple(self.sources))
 
     @property
     def any_sensor_noise(self) -> bool:
@@ -126,8 +131,7 @@ class EpisodeSpec:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
         self.disturbances = disturbances
-        self.plant: Plant = make_plant(disturbances.parameter_spread, disturbances.beam_jitter_m,
-                                       disturbances.push_noise)
+        self.plant: Plant = make_plant(disturbances.parameter_spread, disturbances.push_noise, disturbances.sources)
         self.config = config = self.plant.config
         n = self.plant.n_states
         widths = finite_nonnegative(start_half_widths, "start_half_widths", n)
@@ -210,6 +214,31 @@ class EpisodeSpec:
                 f"{c.beam_cutoff_s:.6g} s), got {jitter}")
 
     @property
+    def window_middle_s(self) -> float:
+        """Flight time [s] of the control window's middle (where slowly varying disturbances are sized)."""
+        return self.config.control_start_s + 0.5 * self.n_steps * self.dt
+
+    def window_step_noise(self, gamma: np.ndarray) -> np.ndarray:
+        """Covariance (n, n) of the state change that the beam offsets and the impacts
+        (:attr:`Disturbances.sources`) cause over one control step of the nominal sail in the
+        window's middle, ``gamma`` (n, m) being the step's input matrix: ``σ² Γ_J Γ_Jᵀ`` over the
+        jittered inputs ``J``, plus ``rate · dt · kick²`` on the impulse rows. What a design's
+        process noise takes of them (the push noise, which multiplies the state, is the design's own)."""
+        plant, n = self.plant, self.plant.n_states
+        nominal = plant.params(np.ones((1, plant.n_factors)))
+        middle = np.array([self.window_middle_s])
+        covariance = np.zeros((n, n))
+        if plant.jittered:
+            std = float(np.ravel(plant.jitter_std(nominal, middle))[0])
+            columns = gamma[:, list(plant.jitter_inputs)]
+            covariance += std**2 * columns @ columns.T
+        if plant.impulse_rows:
+            rate, kick = plant.impact_rate_and_std(nominal, middle)
+            rows = list(plant.impulse_rows)
+            covariance[rows, rows] += rate[0] * self.dt * kick[0] ** 2
+        return covariance
+
+    @property
     def observation_size(self) -> int:
         return self.plant.n_states + 1 + self.plant.n_inputs * self.history_length
 
@@ -234,12 +263,14 @@ def task_spec(make_plant: PlantFactory, default_start_half_widths: Sequence[floa
               start_half_widths: Sequence[float] | None = None, max_beam_offset_m: float = 0.02,
               max_beam_tilt_rad: float = 2e-3, **disturbances: object) -> EpisodeSpec:
     """The spec of an env's episode keywords: the beam limits, the start box (the env's
-    ``default_start_half_widths`` unless given) and the :class:`Disturbances` by their field names.
-    The one place every env's shared keywords are spelled out (their table is in
-    :class:`Disturbances` and the env docstrings); an unknown one is a ``TypeError`` naming it."""
-    unknown = sorted(set(disturbances) - {field.name for field in dataclasses.fields(Disturbances)})
+    ``default_start_half_widths`` unless given), the :class:`Disturbances` by their field names and
+    the registered random disturbances by theirs (:mod:`sail_env.physics.disturbances`). The one
+    place every env's shared keywords are spelled out (their table is in :class:`Disturbances`,
+    the disturbances' modules and the env docstrings); an unknown one is a ``TypeError`` naming it."""
+    sources, episode = split_keywords(disturbances)
+    unknown = sorted(set(episode) - {field.name for field in dataclasses.fields(Disturbances)} - {"sources"})
     if unknown:
         raise TypeError(f"unexpected keyword argument {unknown[0]!r}")
     widths = default_start_half_widths if start_half_widths is None else start_half_widths
     return EpisodeSpec(make_plant, start_half_widths=widths, max_beam_offset_m=max_beam_offset_m,
-                       max_beam_tilt_rad=max_beam_tilt_rad, disturbances=Disturbances(**disturbances))
+                       max_beam_tilt_rad=max_beam_tilt_rad, disturbances=Disturbances(**episode, sources=sources))

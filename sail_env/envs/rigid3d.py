@@ -38,8 +38,7 @@ def power_input(power_control: object) -> float:
 def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
                  curvature_radius_m: float = SEED.curvature_radius_m, com_distance_m: float = SEED.com_distance_m,
                  absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
-                 relativistic: bool = False, ground_jitter_rad: float = 0.0, diffraction_length_m: float = math.inf,
-                 payload_offset_m: float = 0.0, dust_density_m3: float = 0.0, dust_grain_mass_kg: float = 0.0,
+                 relativistic: bool = False, diffraction_length_m: float = math.inf, payload_offset_m: float = 0.0,
                  velocity_terms: bool = False, power_control: bool | float = False,
                  control_start_s: float = SEED.control_start_s,
                  model_uncertainty: ModelUncertainty | dict[str, float] | None = None, **keywords: Any) -> EpisodeSpec:
@@ -63,10 +62,8 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
     # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainFlight.
     make_flight, plant = ((RigidFlight, RigidPlant) if model_uncertainty is None else
                           (functools.partial(UncertainFlight, uncertainty=model_uncertainty), UncertainPlant))
-    flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=power_control,
-                         relativistic=relativistic, ground_jitter_rad=ground_jitter_rad,
+    flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=power_control, relativistic=relativistic,
                          diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
-                         dust_density_m3=dust_density_m3, dust_grain_mass_kg=dust_grain_mass_kg,
                          velocity_terms=velocity_terms, control_start_s=control_start_s)
     return task_spec(functools.partial(plant, flight), START_HALF_WIDTHS_3D, **keywords)
 

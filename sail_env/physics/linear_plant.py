@@ -1,8 +1,9 @@
 """The sail as the episode core sees it: batched linear physics behind a small interface.
 
 A plant knows the nominal model, how far its parameters may be drawn from it, and the
-disturbances that act on the physics (beam jitter and push noise, per control step and
-as white noise over longer propagations). It knows nothing of light delay,
+disturbances that act on the physics (the push noise and the registered random disturbances of
+:mod:`sail_env.physics.disturbance`, per control step and as white noise over longer
+propagations). It knows nothing of light delay,
 observations, rewards or episodes (``sail_env.core``). :class:`LinearPlant` holds what
 every linear model shares (the exact step, the envelope, the coast);
 ``sail_env.physics.planar_plant.PlanarPlant`` is the planar model,
@@ -18,14 +19,17 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Mapping
+import functools
+from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 
 import numpy as np
 
 from sail_env.physics.blas import one_blas_thread, single_threaded
+from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import LinearModel, sample_gaussian, zoh_discretize
-from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_propagator, second_moment)
+from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_propagator,
+                                    second_moment)
 from sail_env.physics.pointing import peak_speed
 
 #: The sail has left the small-angle regime the model is valid in.
@@ -97,8 +101,11 @@ class LinearPlant:
     as a polynomial in its relative error), the envelope and the coast.
 
     A subclass sets :attr:`state_names`, :attr:`input_names`, :attr:`spread_fields`,
-    :attr:`jitter_inputs` (the input columns the beam jitter moves) and the units, and builds
+    :attr:`jitter_inputs` (the input columns a beam offset moves) and the units, and builds
     :class:`PlantParams` in ``_build``; it says when the sail has diverged and how fast it flies.
+    The random disturbances (:mod:`sail_env.physics.disturbance`) reach the step and the coast
+    through :meth:`jitter_std` (every active beam offset, added in variance) and
+    :meth:`impact_rate_and_std` (at most one impulse process).
     """
 
     state_names: tuple[str, ...]
@@ -111,8 +118,6 @@ class LinearPlant:
     velocity_rows: tuple[int, ...]  # the lateral velocity components (pointing and envelope)
     #: A constant term ``c`` in ``ds/dt = A s + B u + c``: the last column of ``B``, its input held at 1.
     biased = False
-    #: State rows a random impact kicks (:meth:`impact_rate_and_std`); empty: no impacts.
-    impulse_rows: tuple[int, ...] = ()
     #: Quantities a start may name but not change (the 3D sail's spin); none by default.
     fixed_state: Mapping[str, float] = MappingProxyType({})
     #: The divergence rule as data: the sail has left the beam or the small-angle regime when the
@@ -120,15 +125,24 @@ class LinearPlant:
     #: ``PlantParams.limits`` (or is NaN). The compiled step and :meth:`diverged` both read it.
     divergence_groups: tuple[tuple[int, ...], ...]
 
-    def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, beam_jitter_m: float,
-                 push_noise: float) -> None:
+    def __init__(self, nominal: LinearModel, dt: float, parameter_spread: float, push_noise: float,
+                 disturbances: Sequence[Disturbance] = ()) -> None:
         self.nominal = nominal
         self.parameter_spread = parameter_spread
-        self.beam_jitter_m = beam_jitter_m
         self.push_noise = push_noise
         self.dt = dt
-        self.white_noise = WhiteNoise.from_step_std(beam_jitter_m, push_noise, self.dt)
-        self.noisy = bool(beam_jitter_m or push_noise)
+        self.disturbances = tuple(d for d in disturbances if d.active)
+        self._beams = tuple(d for d in self.disturbances if d.channel == "beam")
+        impulses = [d for d in self.disturbances if d.channel == "impulse"]
+        if len(impulses) > 1:
+            raise ValueError(f"at most one impulse disturbance can act (the step draws one kick size per row), "
+                             f"got {[type(d).__name__ for d in impulses]}")
+        self._impulse = impulses[0] if impulses else None
+        #: State rows a random impact kicks (:meth:`impact_rate_and_std`); empty: no impacts.
+        self.impulse_rows: tuple[int, ...] = self._impulse.rows(self) if self._impulse else ()
+        # The beam offsets' intensity depends on the flight time (:meth:`jitter_std`); only the push's is constant.
+        self.white_noise = WhiteNoise.from_step_std(0.0, push_noise, self.dt)
+        self.noisy = bool(push_noise or self.disturbances)
         self._shared = None if parameter_spread else self._build(np.ones((1, self.n_factors)), shared=True)
 
     @property
@@ -182,10 +196,29 @@ class LinearPlant:
         """The nominal model's constant term ``c`` (n,) (zero unless :attr:`biased`)."""
         return np.zeros(self.n_states)
 
+    def check_disturbances(self, disturbances: Sequence[Disturbance]) -> tuple[Disturbance, ...]:
+        """Each active disturbance's check against this sail (a ``ValueError`` naming its keyword);
+        the active ones. A subclass calls it once it knows its sail, before its costly tables."""
+        active = tuple(d for d in disturbances if d.active)
+        for disturbance in active:
+            disturbance.check(self)
+        return active
+
     def impact_rate_and_std(self, p: PlantParams, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mean rate [1/s] (k,) of the random impacts at flight time ``t`` (k,) and the standard
         deviation (k, r) of one impact's kick on each of :attr:`impulse_rows` (SI rates)."""
-        raise NotImplementedError
+        return self._impulse.rate_and_kick(self, p, t)
+
+    def _impact_psd(self, p: PlantParams, t: np.ndarray) -> np.ndarray | None:
+        """White-noise intensity (k, n, n) of the impacts at times ``t`` (k,): rate × a kick's mean
+        square on :attr:`impulse_rows` (None without impacts)."""
+        if not self.impulse_rows:
+            return None
+        rate, std = self.impact_rate_and_std(p, t)
+        psd = np.zeros((len(t), self.n_states, self.n_states))
+        rows = list(self.impulse_rows)
+        psd[:, rows, rows] = rate[:, None] * std**2
+        return psd
 
     def step(self, p: PlantParams, x: np.ndarray, u: np.ndarray, push: np.ndarray | None = None) -> np.ndarray:
         """One control step with ``u`` held; ``push`` (k,) is the relative push error ε of the step."""
@@ -224,20 +257,32 @@ class LinearPlant:
         """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
         return np.maximum(1, np.ceil(duration * p.growth / GROWTH_PER_PIECE).astype(np.int64))
 
+    def _push_terms(self, p: PlantParams) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(∂A/∂ln F, ∂B/∂ln F)`` of the draws ``p`` for the moment generator (None: the planar model's)."""
+        return None
+
     def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held at flight time ``t`` (k,)
-        (:mod:`sail_env.physics.noise`)."""
-        raise NotImplementedError
+        (:mod:`sail_env.physics.noise`): the push noise, each beam offset as white noise of
+        intensity ``σ² dt`` and the impacts of intensity rate × kick²."""
+        std = self.jitter_std(p, t)
+        psd = (std[:, 0] if np.ndim(std) else std) ** 2 * self.dt
+        return moment_generator(p.a, p.b, self.with_bias(u), self.white_noise, self._push_terms(p),
+                                self.jitter_inputs if self.jittered else (), psd, self._impact_psd(p, t))
 
     @property
     def jittered(self) -> bool:
-        """Whether the beam's landing offset jitters during the window."""
-        return bool(self.beam_jitter_m)
+        """Whether the beam's offset at the sail jitters (any active beam disturbance)."""
+        return bool(self._beams)
 
     def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
-        """Standard deviation [m] of the beam's landing offset during a step at flight times ``t``
-        (k,) or a grid (k, s) of each environment's: a float, or (k, 1) (a grid: (k, s, 1))."""
-        return self.beam_jitter_m
+        """Standard deviation [m] of the beam's offset during a step at flight times ``t`` (k,) or
+        a grid (k, s) of each environment's: the active beam disturbances added in variance; a float,
+        or (k, 1) (a grid: (k, s, 1))."""
+        if not self._beams:
+            return 0.0
+        std = functools.reduce(np.hypot, (d.std_m(self, p, t) for d in self._beams))
+        return std[..., None] if np.ndim(std) else std
 
     @single_threaded
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,

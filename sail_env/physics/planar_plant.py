@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from sail_env.physics.config import SailConfig, moment_of_inertia
+from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import push_expansion, zoh_discretize
 from sail_env.physics.linear_plant import MAX_TILT_RAD, LinearPlant, PlantParams
-from sail_env.physics.noise import moment_generator, moment_growth_rate
+from sail_env.physics.noise import moment_growth_rate
 from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
                                      rates, system_matrices)
 from sail_env.physics.pointing import envelope_table
@@ -23,12 +26,12 @@ class PlanarPlant(LinearPlant):
         config: The nominal configuration.
         parameter_spread: Relative half-width of a uniform per-episode draw of each of
             :data:`SPREAD_FIELDS`.
-        beam_jitter_m: Standard deviation of the beam's landing offset per control step, at most
-            the aperture radius (the linear model assumes the beam lands on the sail).
         push_noise: Relative standard deviation of the push per control step.
+        disturbances: The random disturbances (:mod:`sail_env.physics.disturbances`; the planar
+            sail carries the beam's landing jitter).
 
-    Raises ``ValueError`` for a spread that could draw an invalid configuration or a jitter
-    wider than the aperture.
+    Raises ``ValueError`` for a spread that could draw an invalid configuration or a disturbance
+    the model cannot carry.
     """
 
     #: What sets the fastest flight (named when a task would pass light speed).
@@ -44,15 +47,17 @@ class PlanarPlant(LinearPlant):
     #: The sail has left the beam (``|X|`` beyond the aperture) or ``|θ|`` beyond ``min(a/Lc, MAX_TILT_RAD)``.
     divergence_groups = ((X,), (THETA,))
 
-    def __init__(self, config: SailConfig, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
-                 push_noise: float = 0.0) -> None:
+    def __init__(self, config: SailConfig, parameter_spread: float = 0.0, push_noise: float = 0.0,
+                 disturbances: Sequence[Disturbance] = ()) -> None:
         self.config = config
         self.parameter_spread = parameter_spread
         self._check_spread_box()
-        if beam_jitter_m > config.aperture_radius_m:
-            raise ValueError(f"beam_jitter_m must be <= aperture_radius_m ({config.aperture_radius_m} m): the "
-                             f"beam must land on the sail, got {beam_jitter_m}")
-        super().__init__(PlanarModel(config), config.control_step_s, parameter_spread, beam_jitter_m, push_noise)
+        disturbances = self.check_disturbances(disturbances)
+        super().__init__(PlanarModel(config), config.control_step_s, parameter_spread, push_noise, disturbances)
+
+    @property
+    def aperture_radius_m(self) -> float:
+        return self.config.aperture_radius_m
 
     def _check_spread_box(self) -> None:
         """Every configuration the spread can draw must be valid (the corners are the worst)."""
@@ -108,9 +113,6 @@ class PlanarPlant(LinearPlant):
     def pointing(self, p: PlantParams, x: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Flight direction ``|Vx| / Vz`` [rad] if the beam is cut at ``t``."""
         return np.abs(x[:, VX]) / self.speed(p, t)
-
-    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
-        return moment_generator(p.a, p.b, u, self.white_noise)
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""

@@ -16,6 +16,7 @@ import pytest
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.core.spec import Disturbances, task_spec
 from sail_env.envs.rigid3d import LightSail3DEnv, rigid3d_spec
+from sail_env.physics import disturbance
 
 
 def _refused(kwargs: dict, field: str) -> str:
@@ -75,11 +76,13 @@ def test_values_at_the_limits_play_a_finite_episode(kwargs):
 
 
 def env_keywords() -> list[str]:
-    """Every keyword of the 3D envs: the 3D ones and the episode keywords every env shares."""
+    """Every keyword of the 3D envs: the 3D ones, the episode keywords every env shares and the
+    registered random disturbances' (the 3D sail carries them all)."""
     own = [name for name in inspect.signature(rigid3d_spec).parameters if name != "keywords"]
     shared = [name for name in inspect.signature(task_spec).parameters
               if name not in ("make_plant", "default_start_half_widths", "disturbances")]
-    return own + shared + [field.name for field in dataclasses.fields(Disturbances)]
+    episode = [field.name for field in dataclasses.fields(Disturbances) if field.name != "sources"]
+    return own + shared + episode + list(disturbance.keywords())
 
 
 def test_every_keyword_is_in_the_docstrings_table_with_its_range():

@@ -236,13 +236,14 @@ def test_half_vectorised_coasts_of_the_real_plants_are_the_full_ones():
     from sail_env.envs.rigid3d import rigid3d_spec
     from sail_env.physics.linear import zoh_discretize
     from sail_env.physics.noise import mean_and_covariance, second_moment, vec_moment_generator
+    from sail_env.physics.disturbances import LandingJitter
     from sail_env.physics.planar_plant import PlanarPlant
     from sail_env.tasks import TASKS
 
     rng = np.random.default_rng(5)
     planar_kwargs = TASKS["LightSailRealistic-v0"]
-    planar = PlanarPlant(planar_kwargs["config"], planar_kwargs["parameter_spread"], planar_kwargs["beam_jitter_m"],
-                         planar_kwargs["push_noise"])
+    planar = PlanarPlant(planar_kwargs["config"], planar_kwargs["parameter_spread"], planar_kwargs["push_noise"],
+                         (LandingJitter(planar_kwargs["beam_jitter_m"]),))
     rigid = rigid3d_spec(**TASKS["LightSail3DRealistic-v0"]).plant
     for plant, duration, t in ((planar, 589.0, 305.0), (rigid, 5.0, 300.0)):
         k, n = 3, plant.n_states

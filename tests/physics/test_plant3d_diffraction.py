@@ -13,6 +13,7 @@ import scipy.interpolate
 import scipy.optimize
 
 from sail_env.physics.config import DEEP_DISH
+from sail_env.physics.disturbances import GroundJitter
 from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
@@ -123,8 +124,8 @@ def test_window_beyond_l0_holds_the_direct_linearisation_at_its_spot():
 
 def test_speed_and_ground_jitter_distance_follow_the_diffracted_flight():
     length = 1.2e10
-    plant = RigidPlant(RigidFlight(REALISTIC_SAIL, relativistic=True, diffraction_length_m=length,
-                                   ground_jitter_rad=1e-15), parameter_spread=0.1)
+    plant = RigidPlant(RigidFlight(REALISTIC_SAIL, relativistic=True, diffraction_length_m=length),
+                       parameter_spread=0.1, disturbances=(GroundJitter(1e-15),))
     p = plant.params(np.array([[0.95, 1.0, 1.05]] * 3))
     t = np.array([100.0, 590.0, 605.0])
     reference = fly(drawn_sail(0.95, 1.05), 700.0, True, length)

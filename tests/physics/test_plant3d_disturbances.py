@@ -9,6 +9,7 @@ import scipy.linalg
 
 from sail_env.core import EpisodeCore
 from sail_env.envs.rigid3d import rigid3d_spec
+from sail_env.physics.disturbance import split_keywords
 from sail_env.physics.noise import mean_and_covariance, second_moment
 from sail_env.physics.rigid3d.plant import OMEGA_Y, THETA_Y, RigidFlight, RigidPlant
 from sail_env.physics.rigid3d import RigidSailConfig
@@ -17,7 +18,8 @@ DEEP_MIRROR = RigidSailConfig(curvature_radius_m=4.0)
 
 
 def _plant(sail: RigidSailConfig = DEEP_MIRROR, **kwargs) -> RigidPlant:
-    return RigidPlant(RigidFlight(sail, **kwargs))
+    sources, flight = split_keywords(kwargs)
+    return RigidPlant(RigidFlight(sail, **flight), disturbances=sources)
 
 
 def _com_offset(plant: RigidPlant) -> float:

@@ -54,23 +54,26 @@ def _bisect(inside, low: float, high: float) -> float:
     return low
 
 
-def check_flight(flight, lin, parameter_spread: float, beam_jitter_m: float) -> None:
-    """The settings whose range depends on the sail's push, mass and inertia (``lin``, a
-    :class:`~sail_env.physics.rigid3d.linearise.Linearisation`) and its flight (``flight``, a
+def fastest_flight(flight, lin, parameter_spread: float) -> tuple[float, float]:
+    """The Newtonian bound's acceleration [m/s²] (the fastest draw at the largest power command) and
+    horizon [s] (twice the cut-off) of a sail ``lin`` (a
+    :class:`~sail_env.physics.rigid3d.linearise.Linearisation`) on ``flight`` (a
     :class:`~sail_env.physics.rigid3d.plant.RigidFlight`)."""
-    sail, dt = flight.sail, flight.control_step_s
-    a, tilt = sail.aperture_radius_m, min(sail.aperture_radius_m / sail.com_distance_m, MAX_TILT_RAD)
-    if beam_jitter_m > a:
-        raise ValueError(f"beam_jitter_m must be in [0, {a:g}] m (at most the aperture radius: the spot must land "
-                         f"on the sail), got {beam_jitter_m}")
     fastest = (1 + parameter_spread) / (1 - parameter_spread) * (1 + flight.power_control)
-    accel = lin.push_n / lin.mass_kg * fastest
-    horizon = 2.0 * flight.beam_cutoff_s
-    farthest = 0.5 * accel * horizon**2
-    if flight.ground_jitter_rad > a / farthest:
-        raise ValueError(f"ground_jitter_rad must be in [0, {a / farthest:.4g}] rad (the spot's jitter D·δ at the "
-                         f"farthest cut-off, D <= {farthest:.4g} m, at most the aperture radius, as beam_jitter_m), "
-                         f"got {flight.ground_jitter_rad}")
+    return lin.push_n / lin.mass_kg * fastest, 2.0 * flight.beam_cutoff_s
+
+
+def farthest_distance_m(flight, lin, parameter_spread: float) -> float:
+    """The farthest the sail can be from the array at a cut-off (the bound of :func:`fastest_flight`)."""
+    accel, horizon = fastest_flight(flight, lin, parameter_spread)
+    return 0.5 * accel * horizon**2
+
+
+def check_flight(flight, lin, parameter_spread: float) -> None:
+    """The flight's settings whose range depends on the sail's push and mass (``lin``) and its flight
+    (``flight``); the random disturbances check their own (:mod:`sail_env.physics.disturbances`)."""
+    sail = flight.sail
+    accel, _ = fastest_flight(flight, lin, parameter_spread)
     window_end = flight.control_start_s + flight.control_window_s
     window_distance = 0.5 * accel * window_end**2
     widest = _bisect(lambda s: sail.caught_fraction(s) >= MIN_CAUGHT_FRACTION, 1.0, 1e6)
@@ -79,24 +82,24 @@ def check_flight(flight, lin, parameter_spread: float, beam_jitter_m: float) -> 
         raise ValueError(f"diffraction_length_m must be >= {shortest:.4g} m (inf: no diffraction): the spot, widened "
                          f"by D/L0 up to the control window's end (D <= {window_distance:.4g} m), must still put >= "
                          f"{MIN_CAUGHT_FRACTION:.0%} of the beam on the sail, got {flight.diffraction_length_m}")
-    if flight.dust_density_m3 > 0 and flight.dust_grain_mass_kg > 0:
-        _check_dust(flight, lin, math.hypot(accel * horizon, DUST_SPEED_M_S), tilt / dt, a / dt)
 
 
-def _check_dust(flight, lin, speed: float, rate_limit: float, speed_limit: float) -> None:
+def check_dust(flight, lin, parameter_spread: float, density_m3: float, grain_mass_kg: float) -> None:
     """The impacts must stay a perturbation: their drag ``n m_g π a² v²`` under
     :data:`MAX_DUST_DRAG_FRACTION` of the push, and no single grain (hitting the rim at the fastest
     speed) kicking the sail out of the small-angle regime or the beam within a control step (the
     start limits' rule)."""
-    a, grain = flight.sail.aperture_radius_m, flight.dust_grain_mass_kg
-    densest = MAX_DUST_DRAG_FRACTION * lin.push_n / (grain * math.pi * a**2 * speed**2)
-    if flight.dust_density_m3 > densest:
-        raise ValueError(f"dust_density_m3 must be <= {densest:.4g} per m³ for grains of {grain:g} kg (the swept "
-                         f"dust's drag at {speed:.4g} m/s under {MAX_DUST_DRAG_FRACTION:.0%} of the push), "
-                         f"got {flight.dust_density_m3}")
-    heaviest = min(rate_limit * lin.inertia[0, 0] / (speed * a), speed_limit * lin.mass_kg * math.sqrt(3) / DUST_SPEED_M_S)
-    if grain > heaviest:
+    sail, dt = flight.sail, flight.control_step_s
+    a, tilt = sail.aperture_radius_m, min(sail.aperture_radius_m / sail.com_distance_m, MAX_TILT_RAD)
+    accel, horizon = fastest_flight(flight, lin, parameter_spread)
+    speed = math.hypot(accel * horizon, DUST_SPEED_M_S)
+    densest = MAX_DUST_DRAG_FRACTION * lin.push_n / (grain_mass_kg * math.pi * a**2 * speed**2)
+    if density_m3 > densest:
+        raise ValueError(f"dust_density_m3 must be <= {densest:.4g} per m³ for grains of {grain_mass_kg:g} kg (the "
+                         f"swept dust's drag at {speed:.4g} m/s under {MAX_DUST_DRAG_FRACTION:.0%} of the push), "
+                         f"got {density_m3}")
+    heaviest = min(tilt / dt * lin.inertia[0, 0] / (speed * a), a / dt * lin.mass_kg * math.sqrt(3) / DUST_SPEED_M_S)
+    if grain_mass_kg > heaviest:
         raise ValueError(f"dust_grain_mass_kg must be <= {heaviest:.4g} kg (one grain hitting the rim at {speed:.4g} "
                          f"m/s must not throw the sail out of the beam or the small-angle regime within a control "
-                         f"step), got {grain}")
-
+                         f"step), got {grain_mass_kg}")

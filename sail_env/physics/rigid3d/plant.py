@@ -26,19 +26,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from sail_env.physics.config import SEED, boolean, real_number
+from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
-from sail_env.physics.noise import moment_generator, moment_growth_rate
+from sail_env.physics.noise import moment_growth_rate
 from sail_env.physics.linear_plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights
-from sail_env.physics.rigid3d.limits import (DUST_SPEED_M_S, MAX_POWER_CONTROL, check_flight, check_grain_mass,
-                                             check_spin)
+from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL, check_flight, check_spin, farthest_distance_m
 from sail_env.physics.rigid3d.damping import damped_linearisation
 from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation
 from sail_env.physics.rigid3d.scales import ScaleTable
@@ -68,18 +69,12 @@ class RigidFlight:
         relativistic: The axial flight follows the relativistic law with the Doppler factor
             (:func:`~sail_env.physics.rigid3d.flight.fly`): the push and every radiation term fall
             along the flight by the power factor ``(1−β)/(1+β)``.
-        ground_jitter_rad: Standard deviation of the ground station's pointing angle per control
-            step: the spot moves by ``D(t)·δ`` at the sail on both axes (docs/physics.md §12).
         diffraction_length_m: ``L0``: beyond it the spot widens as ``D/L0`` with its intensity
             falling as ``(L0/D)²`` (Kulkarni, Lubin & Zhang 2018), and every radiation term follows
             (docs/physics.md §7, §14); ``inf`` (default): the spot never widens.
         payload_offset_m: Distance of the payload from the sail axis (along x), at most the
             aperture radius: the CoM leaves the axis by ``e·m_craft/m`` and the push exerts a
             constant torque about it (docs/physics.md §15).
-        dust_density_m3: Number density of dust grains [1/m³] the sail sweeps up at its speed
-            (0: no impacts; docs/physics.md §15).
-        dust_grain_mass_kg: Mass of one grain [kg]: each impact kicks the tilt rates and the
-            lateral velocity at random (a compound Poisson process).
         velocity_terms: The radiation forces' terms of order v/c (Doppler and aberration,
             :mod:`~sail_env.physics.rigid3d.damping`; docs/physics.md §13): the only passive
             damping a mirror has, of order 1e-3 e-folds over a flight.
@@ -91,11 +86,8 @@ class RigidFlight:
     spin_rad_s: float = 0.0
     power_control: float = 0.0
     relativistic: bool = False
-    ground_jitter_rad: float = 0.0
     diffraction_length_m: float = math.inf
     payload_offset_m: float = 0.0
-    dust_density_m3: float = 0.0
-    dust_grain_mass_kg: float = 0.0
     velocity_terms: bool = False
     beam_cutoff_s: float = SEED.beam_cutoff_s
     control_step_s: float = SEED.control_step_s
@@ -119,9 +111,6 @@ class RigidFlight:
         for name in ("beam_cutoff_s", "control_step_s", "control_window_s"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        for name in ("ground_jitter_rad", "dust_density_m3", "dust_grain_mass_kg"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0 <= self.payload_offset_m <= self.sail.aperture_radius_m:
             raise ValueError(f"payload_offset_m must be in [0, aperture_radius_m = {self.sail.aperture_radius_m}], "
                              f"got {self.payload_offset_m}")
@@ -129,7 +118,6 @@ class RigidFlight:
             raise ValueError(f"power_control must be in [0, {MAX_POWER_CONTROL}] (0: no power input), "
                              f"got {self.power_control}")
         check_spin(self.spin_rad_s, self.control_step_s)
-        check_grain_mass(self.dust_grain_mass_kg)
         if self.control_start_s < 0:
             raise ValueError(f"control_start_s must be >= 0, got {self.control_start_s}")
         if self.control_window_s < self.control_step_s:
@@ -183,8 +171,9 @@ class RigidPlant(LinearPlant):
         flight: The nominal :class:`RigidFlight`.
         parameter_spread: Relative half-width of a uniform per-episode draw of the total mass,
             the inertia tensor and the beam power (:data:`SPREAD_FIELDS`).
-        beam_jitter_m: Standard deviation of the beam's offset per control step, on each axis.
         push_noise: Relative standard deviation of the push per control step.
+        disturbances: The random disturbances (:mod:`sail_env.physics.disturbances`): the beam's
+            landing and ground pointing jitter on each axis, dust.
     """
 
     #: What sets the fastest flight (named when a task would pass light speed).
@@ -202,13 +191,15 @@ class RigidPlant(LinearPlant):
     #: aperture (``√(θx² + θy²) > min(a/Lc, MAX_TILT_RAD)``).
     divergence_groups = ((X, Y), (THETA_X, THETA_Y))
 
-    def __init__(self, flight: RigidFlight, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
-                 push_noise: float = 0.0) -> None:
+    def __init__(self, flight: RigidFlight, parameter_spread: float = 0.0, push_noise: float = 0.0,
+                 disturbances: Sequence[Disturbance] = ()) -> None:
         self.config = flight
+        self.parameter_spread = parameter_spread
         self.sail = RigidSail(flight.sail)
         self.linearisation = lin = damped_linearisation(self.sail, spin=flight.spin_rad_s,
                                                         velocity_terms=flight.velocity_terms)
-        check_flight(flight, lin, parameter_spread, beam_jitter_m)
+        check_flight(flight, lin, parameter_spread)
+        disturbances = self.check_disturbances(disturbances)
         power = flight.power_control > 0
         self.input_names = INPUT_NAMES + (("beam_power",) if power else ())
         self.input_units = ("m", "m", "rad", "rad") + (("1",) if power else ())
@@ -228,11 +219,8 @@ class RigidPlant(LinearPlant):
         self.fixed_state = {"spin": flight.spin_rad_s}  # a launch state may name it, not change it
         self.flights: DrawFlights | None = None
         self.scales: ScaleTable | None = None
-        self.ground_jitter_rad = flight.ground_jitter_rad
-        dusty = flight.dust_density_m3 > 0 and flight.dust_grain_mass_kg > 0
-        self.impulse_rows = (VX, VY, OMEGA_X, OMEGA_Y) if dusty else ()
         self.diffracting = math.isfinite(flight.diffraction_length_m)
-        if flight.relativistic or flight.ground_jitter_rad > 0 or self.diffracting:
+        if flight.relativistic or self.diffracting or any(d.needs_distance for d in disturbances):
             # The flights of every draw's F/m, to twice the cut-off (the latest a cut-off jitter allows).
             fastest = self.largest_ratio(parameter_spread)
             self.flights = DrawFlights(self.sail, 2.0 * flight.beam_cutoff_s, flight.relativistic,
@@ -242,8 +230,8 @@ class RigidPlant(LinearPlant):
                 farthest = max(float(f.distance(f.duration_s)) for f in self.flights.flights)
                 self.scales = ScaleTable(self.sail, farthest * fastest / flight.diffraction_length_m,
                                          flight.velocity_terms)
-        # The impacts' rate and size grow with the sail's speed: the coast holds them piecewise too.
-        self.time_varying = self.flights is not None or dusty
+        # Impacts' rate and size grow with the sail's speed: the coast holds them piecewise too.
+        self.time_varying = self.flights is not None or any(d.channel == "impulse" for d in disturbances)
         self.flight = None if self.flights is None else self.flights.nominal
         ones, middle = np.ones(1), np.full(1, flight.window_middle_s)
         window = self.power_factor(ones, middle)[0]
@@ -252,8 +240,7 @@ class RigidPlant(LinearPlant):
         self.nominal_b = window * inputs  # with the constant term's column
         controls = self.nominal_b[:, :m]
         super().__init__(LinearModel(nominal_a, controls, (window * radiation, controls)),
-                         flight.control_step_s, parameter_spread, beam_jitter_m, push_noise)
-        self.noisy = self.noisy or self.ground_jitter_rad > 0 or dusty
+                         flight.control_step_s, parameter_spread, push_noise, disturbances)
 
     @property
     def power_control(self) -> bool:
@@ -360,31 +347,6 @@ class RigidPlant(LinearPlant):
         """The nominal model's constant term ``c`` (8,) of the payload offset (zero without it)."""
         return self.nominal_b[:, -1] if self.biased else np.zeros(self.n_states)
 
-    def impact_rate_and_std(self, p: PlantParams, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Dust impacts at flight time ``t`` (docs/physics.md §15): the sail of aperture ``a`` sweeps
-        ``n π a² v`` grains a second at the impact speed ``v``; a grain of mass ``m_g`` hitting at a
-        uniformly random point of the disc kicks each tilt rate by ``m_g v y / I_t`` (``y`` of RMS
-        ``a/2``) and each lateral speed by ``m_g u / m`` (``u`` its own speed per axis). Nominal
-        mass and inertia."""
-        c, lin = self.config, self.linearisation
-        radius = c.sail.aperture_radius_m
-        speed = np.hypot(self.speed(p, t), DUST_SPEED_M_S)
-        rate = c.dust_density_m3 * math.pi * radius**2 * speed
-        grain = c.dust_grain_mass_kg
-        lateral = np.full_like(speed, grain * DUST_SPEED_M_S / math.sqrt(3.0) / lin.mass_kg)
-        angular = grain * speed * 0.5 * radius / lin.inertia[0, 0]
-        return rate, np.stack([lateral, lateral, angular, angular], axis=-1)
-
-    def _impact_psd(self, p: PlantParams, t: np.ndarray) -> np.ndarray | None:
-        """White-noise intensity (k, 8, 8) with the impacts' rate × mean squared kick (None without)."""
-        if not self.impulse_rows:
-            return None
-        rate, std = self.impact_rate_and_std(p, t)
-        psd = np.zeros((len(t), self.n_states, self.n_states))
-        rows = list(self.impulse_rows)
-        psd[:, rows, rows] = rate[:, None] * std**2
-        return psd
-
     def start_limits(self) -> np.ndarray:
         c = self.config.sail
         tilt = min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)
@@ -404,6 +366,20 @@ class RigidPlant(LinearPlant):
         if self.flights is None or not (self.config.relativistic or self.diffracting):
             return p.acceleration * t
         return self.flights.speed(p.acceleration / self.nominal_acceleration, t)
+
+    def flight_distance(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
+        """Distance [m] from the array at flight times ``t`` ((k,) or a grid (k, s)) of each draw's flight."""
+        ratio = p.acceleration / self.nominal_acceleration
+        return self.flights.distance(ratio.reshape(ratio.shape + (1,) * (np.ndim(t) - 1)), t)
+
+    @property
+    def farthest_distance_m(self) -> float:
+        """The farthest any draw can be from the array at a cut-off (a Newtonian bound)."""
+        return farthest_distance_m(self.config, self.linearisation, self.parameter_spread)
+
+    @property
+    def aperture_radius_m(self) -> float:
+        return self.config.sail.aperture_radius_m
 
     def pointing(self, p: PlantParams, x: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Flight direction ``|V⊥| / Vz`` [rad] over both axes if the beam is cut at ``t``."""
@@ -495,24 +471,8 @@ class RigidPlant(LinearPlant):
             cuts.append(cut)
         return list(np.sort(cuts, axis=0)) if cuts else None
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
-        a_rad = p.a - self.kinematics
-        psd = None if not self.ground_jitter_rad else self.jitter_std(p, t)[:, 0] ** 2 * self.dt
-        return moment_generator(p.a, p.b, self.with_bias(u), self.white_noise, (a_rad, p.b), self.jitter_inputs, psd,
-                                self._impact_psd(p, t))
-
-    @property
-    def jittered(self) -> bool:
-        return bool(self.beam_jitter_m or self.ground_jitter_rad)
-
-    def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float:
-        """The landing jitter and the ground jitter ``D(t)·δ`` (independent; ``D`` of the draw's flight):
-        (k, 1) for times ``t`` (k,), (k, s, 1) for a grid (k, s) of each environment's times."""
-        if not self.ground_jitter_rad:
-            return self.beam_jitter_m
-        ratio = p.acceleration / self.nominal_acceleration
-        distance = self.flights.distance(ratio.reshape(ratio.shape + (1,) * (np.ndim(t) - 1)), t)
-        return np.hypot(self.beam_jitter_m, distance * self.ground_jitter_rad)[..., None]
+    def _push_terms(self, p: PlantParams) -> tuple[np.ndarray, np.ndarray]:
+        return p.a - self.kinematics, p.b
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""

@@ -35,9 +35,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import sample_uniform
 from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidFlight, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
@@ -170,8 +172,8 @@ class UncertainPlant(RigidPlant):
     always_biased = True
     light_speed_settings = "parameter_spread, model_uncertainty.power and cutoff_jitter_s"
 
-    def __init__(self, flight: UncertainFlight, parameter_spread: float = 0.0, beam_jitter_m: float = 0.0,
-                 push_noise: float = 0.0) -> None:
+    def __init__(self, flight: UncertainFlight, parameter_spread: float = 0.0, push_noise: float = 0.0,
+                 disturbances: Sequence[Disturbance] = ()) -> None:
         u = flight.uncertainty
         self.uncertainty = u
         self.table = CurvatureTable(flight.sail, flight.spin_rad_s, u.curvature)
@@ -182,7 +184,7 @@ class UncertainPlant(RigidPlant):
         self._push_range = np.array([min(pushes), max(pushes)]) / self._nominal_terms[2][0]
         half = np.array([u.curvature, u.absorptivity, u.power, 1.0, 1.0])
         self._low, self._high = 1 - half, 1 + half
-        super().__init__(flight, parameter_spread, beam_jitter_m, push_noise)
+        super().__init__(flight, parameter_spread, push_noise, disturbances)
         if u.active:
             self._shared = None
 
