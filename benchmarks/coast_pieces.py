@@ -40,7 +40,7 @@ import scipy.integrate
 import scipy.linalg
 
 from sail_env.physics.config import DEEP_DISH
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
 RESULTS = Path(__file__).parent / "results"
@@ -81,7 +81,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=RESULTS / "coast_pieces.json")
     args = parser.parse_args()
     sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
-    plant = RigidPlant(RigidFlight(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0))
+    plant = RigidPlant(RigidTaskConfig(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0))
     p = plant.params(np.ones((1, 3)))
     a_rad, b = p.a[0] - plant.kinematics, p.b[0]
     window = float(plant.flight.power_factor(plant.config.window_middle_s))

@@ -26,7 +26,7 @@ import numpy as np
 import scipy.integrate
 
 from sail_env.physics.config import DEEP_DISH
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d import BEAM_PROFILES, RigidSail, RigidSailConfig, state_from_small
 from sail_env.physics.rigid3d.body import small_state
 
@@ -60,7 +60,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
                            beam_profile=args.beam_profile, beam_radius_m=args.beam_radius * DEEP_DISH.aperture_radius_m,
                            radial_nodes=args.mesh[0], angular_nodes=args.mesh[1])
     spin = 1.0
-    plant = RigidPlant(RigidFlight(sail, spin_rad_s=spin, relativistic=True, control_start_s=10.0))
+    plant = RigidPlant(RigidTaskConfig(sail, spin_rad_s=spin, relativistic=True, control_start_s=10.0))
     params = plant.params(np.ones((1, plant.n_factors)))
     cutoff = plant.config.beam_cutoff_s
     x0 = np.array([[START[name] for name in plant.state_names]])

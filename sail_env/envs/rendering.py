@@ -110,7 +110,7 @@ class AxisView:
 
     def __init__(self, spec: EpisodeSpec) -> None:
         plant, config = spec.plant, spec.config
-        sail = getattr(config, "sail", config)  # a RigidFlight's RigidSailConfig, or the SailConfig
+        sail = getattr(config, "sail", config)  # a RigidTaskConfig's RigidSailConfig, or the SailConfig
         self.aperture_m, self.com_distance_m = sail.aperture_radius_m, sail.com_distance_m
         self.strut_length_m = sail.strut_length_m
         self.curvature_radius_m = np.inf if getattr(sail, "shape", "dish") == "flat" else sail.curvature_radius_m

@@ -12,10 +12,10 @@ from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics.config import SEED, real_number
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, SHAPES, RigidSailConfig
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
-from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainFlight, UncertainPlant
+from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainTaskConfig, UncertainPlant
 
 #: ``(x, y, vx, vy, θx, θy, ωx, ωy)``: LightSail-v0's start box on each axis.
 START_HALF_WIDTHS_3D = (5e-3, 5e-3, 0.1, 0.1, 2e-3, 2e-3, 1e-5, 1e-5)
@@ -59,13 +59,13 @@ def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
     elif not (model_uncertainty is None or isinstance(model_uncertainty, ModelUncertainty)):
         raise ValueError(f"model_uncertainty must be a ModelUncertainty, a dict of its fields or None, "
                          f"got {model_uncertainty!r}")
-    # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainFlight.
-    make_flight, plant = ((RigidFlight, RigidPlant) if model_uncertainty is None else
-                          (functools.partial(UncertainFlight, uncertainty=model_uncertainty), UncertainPlant))
-    flight = make_flight(sail, spin_rad_s=spin_rad_s, power_control=power_control, relativistic=relativistic,
+    # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainTaskConfig.
+    make_config, plant = ((RigidTaskConfig, RigidPlant) if model_uncertainty is None else
+                          (functools.partial(UncertainTaskConfig, uncertainty=model_uncertainty), UncertainPlant))
+    config = make_config(sail, spin_rad_s=spin_rad_s, power_control=power_control, relativistic=relativistic,
                          diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
                          velocity_terms=velocity_terms, control_start_s=control_start_s)
-    return task_spec(functools.partial(plant, flight), START_HALF_WIDTHS_3D, **keywords)
+    return task_spec(functools.partial(plant, config), START_HALF_WIDTHS_3D, **keywords)
 
 
 class LightSail3DEnv(LightSailEnv):

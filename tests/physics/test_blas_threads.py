@@ -11,7 +11,7 @@ from threadpoolctl import threadpool_limits
 from sail_env.physics.blas import blas_threads, one_blas_thread
 from sail_env.physics.linear_plant import THREADED_BATCH
 from sail_env.physics.disturbances import GroundJitter
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
 
@@ -31,7 +31,7 @@ def test_context_limits_and_restores(two_threads):
 
 
 def test_coast_build_and_batched_step_run_single_threaded(two_threads, monkeypatch):
-    flight = RigidFlight(RigidSailConfig(curvature_radius_m=4.0), relativistic=True)
+    flight = RigidTaskConfig(RigidSailConfig(curvature_radius_m=4.0), relativistic=True)
     plant = RigidPlant(flight, parameter_spread=0.1, push_noise=0.01, disturbances=(GroundJitter(1e-15),))
     seen = {}
 

@@ -113,3 +113,14 @@ def test_the_designs_process_noise_reads_every_source():
     angular = (grain * speed * 0.5 * radius / lin.inertia[0, 0]) ** 2
     expected[[2, 3, 6, 7], [2, 3, 6, 7]] += rate * spec.dt * np.array([lateral, lateral, angular, angular])
     np.testing.assert_allclose(spec.window_step_noise(gamma), expected, rtol=1e-9, atol=0)
+
+
+def test_the_configurations_old_names_still_work_with_a_warning():
+    from sail_env.physics.rigid3d import plant, uncertainty
+
+    with pytest.warns(DeprecationWarning, match="RigidTaskConfig"):
+        assert plant.RigidFlight is plant.RigidTaskConfig
+    with pytest.warns(DeprecationWarning, match="UncertainTaskConfig"):
+        assert uncertainty.UncertainFlight is uncertainty.UncertainTaskConfig
+    with pytest.raises(AttributeError):
+        plant.RigidFlights  # noqa: B018

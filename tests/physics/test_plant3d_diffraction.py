@@ -14,7 +14,7 @@ import scipy.optimize
 
 from sail_env.physics.config import DEEP_DISH
 from sail_env.physics.disturbances import GroundJitter
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights, fly
@@ -99,7 +99,7 @@ def test_table_interpolation_against_direct_linearisations():
 
 def test_window_beyond_l0_holds_the_direct_linearisation_at_its_spot():
     """L0 of 1,000 km: at the window's middle (10.5 s, 3,800 km with the power lost) the spot is 3.8 times wider."""
-    flight = RigidFlight(REALISTIC_SAIL, spin_rad_s=1.0, relativistic=True, diffraction_length_m=1e6,
+    flight = RigidTaskConfig(REALISTIC_SAIL, spin_rad_s=1.0, relativistic=True, diffraction_length_m=1e6,
                          control_start_s=10.0, beam_cutoff_s=20.0)
     plant = RigidPlant(flight)
     nominal = plant.flight
@@ -124,7 +124,7 @@ def test_window_beyond_l0_holds_the_direct_linearisation_at_its_spot():
 
 def test_speed_and_ground_jitter_distance_follow_the_diffracted_flight():
     length = 1.2e10
-    plant = RigidPlant(RigidFlight(REALISTIC_SAIL, relativistic=True, diffraction_length_m=length),
+    plant = RigidPlant(RigidTaskConfig(REALISTIC_SAIL, relativistic=True, diffraction_length_m=length),
                        parameter_spread=0.1, disturbances=(GroundJitter(1e-15),))
     p = plant.params(np.array([[0.95, 1.0, 1.05]] * 3))
     t = np.array([100.0, 590.0, 605.0])
@@ -137,7 +137,7 @@ def test_speed_and_ground_jitter_distance_follow_the_diffracted_flight():
 @pytest.mark.parametrize("value", [0.0, -1.0, math.nan, True, "far"])
 def test_diffraction_length_must_be_positive(value):
     with pytest.raises(ValueError, match="diffraction_length_m"):
-        RigidFlight(diffraction_length_m=value)
+        RigidTaskConfig(diffraction_length_m=value)
 
 
 @pytest.mark.slow
@@ -152,7 +152,7 @@ def test_coast_across_l0_matches_an_integration_of_the_time_varying_model():
     sail = drawn_sail(mass, power)
     flight_time = fly(sail, 600.0)
     length = float(flight_time.distance(565.0))
-    plant = RigidPlant(RigidFlight(REALISTIC_SAIL, spin_rad_s=1.0, relativistic=True, diffraction_length_m=length,
+    plant = RigidPlant(RigidTaskConfig(REALISTIC_SAIL, spin_rad_s=1.0, relativistic=True, diffraction_length_m=length,
                                    control_start_s=10.0), parameter_spread=0.1)
     p = plant.params(np.array([[mass, mass, power]]))
     # Small enough to stay inside the aperture: beyond L0 nothing restores the offset.
@@ -184,7 +184,7 @@ def test_coast_across_l0_matches_an_integration_of_the_time_varying_model():
     speed = np.hypot(*reference[2:4])
     assert np.hypot(*(x[0, 2:4] - reference[2:4])) < 4e-3 * speed
     # Without diffraction the end is far off (the test can fail).
-    plain = RigidPlant(RigidFlight(REALISTIC_SAIL, spin_rad_s=1.0, relativistic=True, control_start_s=10.0),
+    plain = RigidPlant(RigidTaskConfig(REALISTIC_SAIL, spin_rad_s=1.0, relativistic=True, control_start_s=10.0),
                        parameter_spread=0.1)
     fixed, _ = plain.coast(plain.params(np.array([[mass, mass, power]])), x0[None], u[None],
                            np.array([end - start]), None, np.array([start]))

@@ -11,7 +11,7 @@ from sail_env.core import EpisodeCore
 from sail_env.envs.rigid3d import rigid3d_spec
 from sail_env.physics.disturbance import split_keywords
 from sail_env.physics.noise import mean_and_covariance, second_moment
-from sail_env.physics.rigid3d.plant import OMEGA_Y, THETA_Y, RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import OMEGA_Y, THETA_Y, RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d import RigidSailConfig
 
 DEEP_MIRROR = RigidSailConfig(curvature_radius_m=4.0)
@@ -19,7 +19,7 @@ DEEP_MIRROR = RigidSailConfig(curvature_radius_m=4.0)
 
 def _plant(sail: RigidSailConfig = DEEP_MIRROR, **kwargs) -> RigidPlant:
     sources, flight = split_keywords(kwargs)
-    return RigidPlant(RigidFlight(sail, **flight), disturbances=sources)
+    return RigidPlant(RigidTaskConfig(sail, **flight), disturbances=sources)
 
 
 def _com_offset(plant: RigidPlant) -> float:

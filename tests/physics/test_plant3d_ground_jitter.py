@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from sail_env.physics.noise import mean_and_covariance, second_moment
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.disturbance import split_keywords
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.analysis.jitter import accumulate_covariance
@@ -16,7 +16,7 @@ SIGMA_RAD = 1e-14
 
 def plant_with(**kwargs) -> RigidPlant:
     sources, flight = split_keywords(kwargs)
-    return RigidPlant(RigidFlight(RigidSailConfig(absorptivity=0.1, reflectivity=0.9), **flight), disturbances=sources)
+    return RigidPlant(RigidTaskConfig(RigidSailConfig(absorptivity=0.1, reflectivity=0.9), **flight), disturbances=sources)
 
 
 def test_step_jitter_is_the_distance_times_the_angle():

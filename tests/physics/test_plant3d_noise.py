@@ -12,13 +12,13 @@ from sail_env.physics import linear_plant as plant_module
 from sail_env.physics.config import DEEP_DISH
 from sail_env.physics.linear import mode_rates
 from sail_env.physics.noise import mean_and_covariance, moment_propagator, second_moment, vec_moment_generator
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
 
 def stiff_noisy_plant() -> RigidPlant:
     """The deep dish (modes of 64 and 110 rad/s) with the strongest push noise a task allows."""
-    return RigidPlant(RigidFlight(RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m)), push_noise=0.25)
+    return RigidPlant(RigidTaskConfig(RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m)), push_noise=0.25)
 
 
 def test_the_spread_growth_splits_the_coast():

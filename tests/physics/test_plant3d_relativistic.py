@@ -10,7 +10,7 @@ import scipy.integrate
 
 from sail_env.physics.config import DEEP_DISH
 from sail_env.physics.constants import SPEED_OF_LIGHT
-from sail_env.physics.rigid3d.plant import COAST_SEGMENT_S, RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import COAST_SEGMENT_S, RigidTaskConfig, RigidPlant
 from sail_env.physics.relativity import time_to_beta
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
@@ -21,11 +21,11 @@ BOUND = 4e-3
 
 def realistic_plant(**kwargs) -> RigidPlant:
     sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
-    return RigidPlant(RigidFlight(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0), **kwargs)
+    return RigidPlant(RigidTaskConfig(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0), **kwargs)
 
 
 def test_speed_follows_the_closed_form_of_the_doppler_law():
-    plant = RigidPlant(RigidFlight(RigidSailConfig(), relativistic=True))
+    plant = RigidPlant(RigidTaskConfig(RigidSailConfig(), relativistic=True))
     p = plant.params(np.ones((1, 3)))
     times = np.array([50.0, 300.0, 600.0])
     beta = plant.speed(p, times) / SPEED_OF_LIGHT
@@ -48,7 +48,7 @@ def test_a_faster_draw_flies_the_nominal_flight_sooner():
 
 def test_power_factor_scales_every_radiation_term_in_the_window():
     plant = realistic_plant()
-    newtonian = RigidPlant(RigidFlight(plant.config.sail, spin_rad_s=1.0, control_start_s=10.0))
+    newtonian = RigidPlant(RigidTaskConfig(plant.config.sail, spin_rad_s=1.0, control_start_s=10.0))
     factor = plant.flight.power_factor(10.5)
     assert 0.99 < factor < 0.995
     np.testing.assert_allclose(plant.nominal.A - plant.kinematics, factor * (newtonian.nominal.A - plant.kinematics),

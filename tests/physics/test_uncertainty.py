@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401
-from sail_env.physics.rigid3d.plant import RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation
 from sail_env.physics.rigid3d.scales import cleaned
 from sail_env.physics.rigid3d.uncertainty import (TASK_UNCERTAINTY, CurvatureTable, ModelUncertainty,
-                                                  UncertainFlight, UncertainPlant)
+                                                  UncertainTaskConfig, UncertainPlant)
 from sail_env.tasks import RIGID3D_TASKS
 
 #: The task's sail (v1: deep dish in a Gaussian of waist 0.8 a, 10 % absorbed, spinning), with a payload.
@@ -58,11 +58,11 @@ def test_a_draw_is_the_plant_of_the_drawn_sail():
     """Curvature ×1.15, absorptivity ×1.4, transmission ×0.85: the draw's window model (A, B and the
     payload's constant term) is the nominal model of a RigidPlant built from scratch for that sail and
     power (its own quadrature, inertia and payload torque), to the spline's accuracy."""
-    uncertain = UncertainPlant(UncertainFlight(SAIL, **FLIGHT, uncertainty=TASK_UNCERTAINTY))
+    uncertain = UncertainPlant(UncertainTaskConfig(SAIL, **FLIGHT, uncertainty=TASK_UNCERTAINTY))
     factors = np.array([[1.0, 1.0, 1.0, 1.15, 1.4, 0.85, 1.0, 1.0]])
     p = uncertain.params(factors)
     config = SAIL.replace(curvature_radius_m=4.6, absorptivity=0.14, reflectivity=0.86)
-    reference = RigidPlant(RigidFlight(config, **FLIGHT), parameter_spread=0.1)
+    reference = RigidPlant(RigidTaskConfig(config, **FLIGHT), parameter_spread=0.1)
     ref = reference.params(np.array([[1.0, 1.0, 0.85]]))
     for got, want in ((p.a[0], ref.a[0]), (p.b[0], ref.b[0])):
         assert np.abs(got - want).max() <= 2e-5 * np.abs(want).max()
@@ -72,7 +72,7 @@ def test_a_draw_is_the_plant_of_the_drawn_sail():
 
 
 def test_all_ones_is_the_nominal_model():
-    plant = UncertainPlant(UncertainFlight(SAIL, **FLIGHT, uncertainty=TASK_UNCERTAINTY))
+    plant = UncertainPlant(UncertainTaskConfig(SAIL, **FLIGHT, uncertainty=TASK_UNCERTAINTY))
     p = plant.params(np.ones((1, plant.n_factors)))
     np.testing.assert_array_equal(p.a[0], plant.nominal.A)
     np.testing.assert_array_equal(p.b[0, :, :4], plant.nominal.B)
@@ -82,7 +82,7 @@ def test_all_ones_is_the_nominal_model():
 def test_the_pointing_bias_is_a_beam_offset():
     """A bias b at the sail moves the sail as a command of b would: the same step from the same state."""
     bias = 7e-3
-    plant = UncertainPlant(UncertainFlight(SAIL, **FLIGHT, uncertainty=ModelUncertainty(pointing_bias_m=bias)))
+    plant = UncertainPlant(UncertainTaskConfig(SAIL, **FLIGHT, uncertainty=ModelUncertainty(pointing_bias_m=bias)))
     biased = plant.params(np.array([[1, 1, 1, 1, 1, 1, 2.0, 0.5]]))  # b = (+bias, −bias/2)
     plain = plant.params(np.ones((1, plant.n_factors)))
     x = np.array([[1e-3, -2e-3, 0.05, 0.01, 1e-4, -2e-4, 1e-3, 0.0]])
@@ -117,9 +117,9 @@ def test_bad_sizes_are_refused(fields, match):
 
 def test_bad_combinations_are_refused():
     with pytest.raises(ValueError, match="keep α <= 1"):
-        UncertainFlight(SAIL.replace(absorptivity=0.8, reflectivity=0.2), uncertainty=ModelUncertainty(absorptivity=0.5))
+        UncertainTaskConfig(SAIL.replace(absorptivity=0.8, reflectivity=0.2), uncertainty=ModelUncertainty(absorptivity=0.5))
     with pytest.raises(ValueError, match="R > a"):
-        UncertainFlight(SAIL.replace(curvature_radius_m=2.5), uncertainty=ModelUncertainty(curvature=0.3))
+        UncertainTaskConfig(SAIL.replace(curvature_radius_m=2.5), uncertainty=ModelUncertainty(curvature=0.3))
     with pytest.raises(ValueError, match="model_uncertainty must be"):
         gym.make("LightSail3D-v0", model_uncertainty=0.2)
     with pytest.raises(ValueError, match="model_uncertainty.curvature"):

@@ -58,7 +58,7 @@ def fastest_flight(flight, lin, parameter_spread: float) -> tuple[float, float]:
     """The Newtonian bound's acceleration [m/s²] (the fastest draw at the largest power command) and
     horizon [s] (twice the cut-off) of a sail ``lin`` (a
     :class:`~sail_env.physics.rigid3d.linearise.Linearisation`) on ``flight`` (a
-    :class:`~sail_env.physics.rigid3d.plant.RigidFlight`)."""
+    :class:`~sail_env.physics.rigid3d.plant.RigidTaskConfig`)."""
     fastest = (1 + parameter_spread) / (1 - parameter_spread) * (1 + flight.power_control)
     return lin.push_n / lin.mass_kg * fastest, 2.0 * flight.beam_cutoff_s
 

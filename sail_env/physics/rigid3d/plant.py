@@ -1,7 +1,9 @@
 """The rigid 3D sail as the episode core sees it: its linearisation, batched (docs/physics.md §9).
 
-:class:`RigidFlight` is the task's physics: a :class:`~sail_env.physics.rigid3d.RigidSailConfig`
-(shape, beam, materials, masses), the spin, the optional power command and the timing.
+:class:`RigidTaskConfig` is the task's physics: a :class:`~sail_env.physics.rigid3d.RigidSailConfig`
+(shape, beam, materials, masses), the spin, the optional power command and the timing. "Flight" means
+the sail's axial trajectory (:mod:`~sail_env.physics.rigid3d.flight`) and nothing else; the
+configuration was called ``RigidFlight`` before version 0.4 (that name still works, with a warning).
 :class:`RigidPlant` is the 8-state, 4-input linear model of
 :func:`~sail_env.physics.rigid3d.linearise` at the nominal configuration behind the
 :class:`~sail_env.physics.linear_plant.LinearPlant` interface: the exact step, the envelope and the
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -58,8 +61,8 @@ X, Y, VX, VY, THETA_X, THETA_Y, OMEGA_X, OMEGA_Y = range(8)
 
 
 @dataclasses.dataclass(frozen=True)
-class RigidFlight:
-    """What the 3D tasks fly: the sail and beam, its spin, the power command and the timing.
+class RigidTaskConfig:
+    """The 3D task's physics: the sail and beam, its spin, the power command and the timing.
 
     Attributes:
         sail: The :class:`RigidSailConfig` (default: the seed's dish in its flat-top beam).
@@ -99,7 +102,7 @@ class RigidFlight:
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
         for name in ("relativistic", "velocity_terms"):
             object.__setattr__(self, name, boolean(getattr(self, name), name))
-        for field in dataclasses.fields(RigidFlight)[1:]:  # a subclass checks its own fields
+        for field in dataclasses.fields(RigidTaskConfig)[1:]:  # a subclass checks its own fields
             if field.name in ("relativistic", "velocity_terms"):
                 continue
             value = real_number(getattr(self, field.name), field.name)
@@ -149,7 +152,7 @@ class RigidParams(PlantParams):
     factors: np.ndarray
 
 
-def payload_term(flight: RigidFlight, lin: Linearisation, radiation: np.ndarray,
+def payload_term(config: RigidTaskConfig, lin: Linearisation, radiation: np.ndarray,
                  push: np.ndarray | float) -> np.ndarray:
     """The constant term ``c`` (..., 8) of a payload ``e`` off the axis along x (docs/physics.md §15),
     for the radiation part of ``A`` (..., 8, 8) and the push [N] (...) of a spot.
@@ -158,7 +161,7 @@ def payload_term(flight: RigidFlight, lin: Linearisation, radiation: np.ndarray,
     radiation terms see the CoM offset ``x − e_c``, and the push ``F`` through the axis exerts the
     torque ``F e_c`` about y on the CoM (first order in ``e_c``; the inertia tensor's change is second).
     """
-    offset = flight.payload_offset_m * flight.sail.craft_mass_kg / lin.mass_kg
+    offset = config.payload_offset_m * config.sail.craft_mass_kg / lin.mass_kg
     term = -offset * radiation[..., :, X]
     term[..., OMEGA_Y] += np.asarray(push) * offset / lin.inertia[0, 0]
     return term
@@ -168,7 +171,7 @@ class RigidPlant(LinearPlant):
     """Batched linearised 3D sail (:mod:`sail_env.physics.rigid3d`) for the episode core.
 
     Args:
-        flight: The nominal :class:`RigidFlight`.
+        config: The nominal :class:`RigidTaskConfig`.
         parameter_spread: Relative half-width of a uniform per-episode draw of the total mass,
             the inertia tensor and the beam power (:data:`SPREAD_FIELDS`).
         push_noise: Relative standard deviation of the push per control step.
@@ -191,56 +194,56 @@ class RigidPlant(LinearPlant):
     #: aperture (``√(θx² + θy²) > min(a/Lc, MAX_TILT_RAD)``).
     divergence_groups = ((X, Y), (THETA_X, THETA_Y))
 
-    def __init__(self, flight: RigidFlight, parameter_spread: float = 0.0, push_noise: float = 0.0,
+    def __init__(self, config: RigidTaskConfig, parameter_spread: float = 0.0, push_noise: float = 0.0,
                  disturbances: Sequence[Disturbance] = ()) -> None:
-        self.config = flight
+        self.config = config
         self.parameter_spread = parameter_spread
-        self.sail = RigidSail(flight.sail)
-        self.linearisation = lin = damped_linearisation(self.sail, spin=flight.spin_rad_s,
-                                                        velocity_terms=flight.velocity_terms)
-        check_flight(flight, lin, parameter_spread)
+        self.sail = RigidSail(config.sail)
+        self.linearisation = lin = damped_linearisation(self.sail, spin=config.spin_rad_s,
+                                                        velocity_terms=config.velocity_terms)
+        check_flight(config, lin, parameter_spread)
         disturbances = self.check_disturbances(disturbances)
-        power = flight.power_control > 0
+        power = config.power_control > 0
         self.input_names = INPUT_NAMES + (("beam_power",) if power else ())
         self.input_units = ("m", "m", "rad", "rad") + (("1",) if power else ())
-        self.input_ranges = {"1": flight.power_control} if power else {}
-        self.biased = flight.payload_offset_m > 0 or self.always_biased
+        self.input_ranges = {"1": config.power_control} if power else {}
+        self.biased = config.payload_offset_m > 0 or self.always_biased
         # The power input has no column of B: it acts through A (and B) parametrically. The payload's
         # constant term is a last column with its input held at 1; it scales with the push like B.
         m = len(self.input_names)
         b = np.zeros((8, m + self.biased))
         b[:, :4] = lin.B
         if self.biased:
-            b[:, m] = payload_term(flight, lin, lin.push_sensitivity, lin.push_n)
+            b[:, m] = payload_term(config, lin, lin.push_sensitivity, lin.push_n)
         self.kinematics = lin.A - lin.push_sensitivity
         self.radiation = lin.push_sensitivity
         self.radiation_b = b
         self.nominal_acceleration = lin.push_n / lin.mass_kg
-        self.fixed_state = {"spin": flight.spin_rad_s}  # a launch state may name it, not change it
+        self.fixed_state = {"spin": config.spin_rad_s}  # a launch state may name it, not change it
         self.flights: DrawFlights | None = None
         self.scales: ScaleTable | None = None
-        self.diffracting = math.isfinite(flight.diffraction_length_m)
-        if flight.relativistic or self.diffracting or any(d.needs_distance for d in disturbances):
+        self.diffracting = math.isfinite(config.diffraction_length_m)
+        if config.relativistic or self.diffracting or any(d.needs_distance for d in disturbances):
             # The flights of every draw's F/m, to twice the cut-off (the latest a cut-off jitter allows).
             fastest = self.largest_ratio(parameter_spread)
-            self.flights = DrawFlights(self.sail, 2.0 * flight.beam_cutoff_s, flight.relativistic,
-                                       flight.diffraction_length_m, fastest)
+            self.flights = DrawFlights(self.sail, 2.0 * config.beam_cutoff_s, config.relativistic,
+                                       config.diffraction_length_m, fastest)
             if self.diffracting:
                 # A draw's spot is D̃(r t)/(r L0) (DrawFlights): bounded by the farthest node over the slowest draw.
                 farthest = max(float(f.distance(f.duration_s)) for f in self.flights.flights)
-                self.scales = ScaleTable(self.sail, farthest * fastest / flight.diffraction_length_m,
-                                         flight.velocity_terms)
+                self.scales = ScaleTable(self.sail, farthest * fastest / config.diffraction_length_m,
+                                         config.velocity_terms)
         # Impacts' rate and size grow with the sail's speed: the coast holds them piecewise too.
         self.time_varying = self.flights is not None or any(d.channel == "impulse" for d in disturbances)
         self.flight = None if self.flights is None else self.flights.nominal
-        ones, middle = np.ones(1), np.full(1, flight.window_middle_s)
+        ones, middle = np.ones(1), np.full(1, config.window_middle_s)
         window = self.power_factor(ones, middle)[0]
         radiation, inputs = (matrix[0] for matrix in self._radiation(ones, middle))
-        nominal_a = self.kinematics + window * radiation if flight.relativistic or self.diffracting else lin.A.copy()
+        nominal_a = self.kinematics + window * radiation if config.relativistic or self.diffracting else lin.A.copy()
         self.nominal_b = window * inputs  # with the constant term's column
         controls = self.nominal_b[:, :m]
         super().__init__(LinearModel(nominal_a, controls, (window * radiation, controls)),
-                         flight.control_step_s, parameter_spread, push_noise, disturbances)
+                         config.control_step_s, parameter_spread, push_noise, disturbances)
 
     @property
     def power_control(self) -> bool:
@@ -478,3 +481,11 @@ class RigidPlant(LinearPlant):
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""
         growth, freqs = mode_rates(self.nominal.A)
         return float(np.nanmax([*freqs, growth]))
+
+
+def __getattr__(name: str) -> type:
+    """The configuration's name before version 0.4, kept a while with a warning."""
+    if name == "RigidFlight":
+        warnings.warn("RigidFlight is now RigidTaskConfig", DeprecationWarning, stacklevel=2)
+        return RigidTaskConfig
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

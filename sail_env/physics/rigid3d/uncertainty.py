@@ -35,13 +35,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
 
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import sample_uniform
-from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidFlight, RigidPlant
+from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation
@@ -89,8 +90,8 @@ TASK_UNCERTAINTY = ModelUncertainty(curvature=0.2, absorptivity=0.5, power=0.2, 
 
 
 @dataclasses.dataclass(frozen=True)
-class UncertainFlight(RigidFlight):
-    """A :class:`RigidFlight` whose sail the station knows only to within ``uncertainty``."""
+class UncertainTaskConfig(RigidTaskConfig):
+    """A :class:`RigidTaskConfig` whose sail the station knows only to within ``uncertainty``."""
 
     uncertainty: ModelUncertainty = ModelUncertainty()
 
@@ -172,19 +173,19 @@ class UncertainPlant(RigidPlant):
     always_biased = True
     light_speed_settings = "parameter_spread, model_uncertainty.power and cutoff_jitter_s"
 
-    def __init__(self, flight: UncertainFlight, parameter_spread: float = 0.0, push_noise: float = 0.0,
+    def __init__(self, config: UncertainTaskConfig, parameter_spread: float = 0.0, push_noise: float = 0.0,
                  disturbances: Sequence[Disturbance] = ()) -> None:
-        u = flight.uncertainty
+        u = config.uncertainty
         self.uncertainty = u
-        self.table = CurvatureTable(flight.sail, flight.spin_rad_s, u.curvature)
-        sail = flight.sail
+        self.table = CurvatureTable(config.sail, config.spin_rad_s, u.curvature)
+        sail = config.sail
         self._nominal_terms = self.table.at(np.array([sail.curvature_radius_m]), np.array([sail.absorptivity]))
         pushes = [self.table.at(np.array([r]), np.array([a]))[2][0] for r in self.table.radii
                   for a in sail.absorptivity * np.array([1 - u.absorptivity, 1 + u.absorptivity])]
         self._push_range = np.array([min(pushes), max(pushes)]) / self._nominal_terms[2][0]
         half = np.array([u.curvature, u.absorptivity, u.power, 1.0, 1.0])
         self._low, self._high = 1 - half, 1 + half
-        super().__init__(flight, parameter_spread, push_noise, disturbances)
+        super().__init__(config, parameter_spread, push_noise, disturbances)
         if u.active:
             self._shared = None
 
@@ -238,3 +239,11 @@ class UncertainPlant(RigidPlant):
         bias = (factors[:, 6:8] - 1.0) * self.uncertainty.pointing_bias_m
         delta_b[:, :, -1] += np.einsum("kij,kj->ki", self.radiation_b[None, :, :2] + delta_b[:, :, :2], bias)
         return base_a + delta_a, base_b + delta_b
+
+
+def __getattr__(name: str) -> type:
+    """The configuration's name before version 0.4, kept a while with a warning."""
+    if name == "UncertainFlight":
+        warnings.warn("UncertainFlight is now UncertainTaskConfig", DeprecationWarning, stacklevel=2)
+        return UncertainTaskConfig
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
