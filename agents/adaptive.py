@@ -47,7 +47,7 @@ def model_grid(spec: EpisodeSpec) -> list[np.ndarray]:
     """Factor rows of the bank's models: the power on :data:`STIFFNESS_GRID` and, where the plant draws
     it, the curvature on :data:`CURVATURE_GRID`; every other factor nominal."""
     plant = spec.plant
-    fields = getattr(plant, "spread_fields", ())
+    fields = plant.spread_fields
     if "beam_power" not in fields:
         raise ValueError("lqg-mm needs a 3D task (a plant whose draws include the beam power)")
     power = fields.index("transmission") if "transmission" in fields else fields.index("beam_power")

@@ -17,13 +17,14 @@ parameter draws. SI units throughout.
 | ``state_names``, ``state_units`` | the state's components and their units (``m``, ``m/s``, ``rad``, ``rad/s``: the observation's scales) |
 | ``input_names``, ``input_units``, ``input_ranges`` | the beam inputs; ``m``/``rad`` scale with the task's beam limits, other units by ``input_ranges`` (the input at action +1) |
 | ``fixed_state`` | quantities a start may name but not change (the 3D sail's spin) |
+| ``radial_pairs`` | pairs of state rows limited together at the start, in their length ``√(a² + b²)`` (the 3D sail's x and y axes; none in the plane) |
 | ``n_states``, ``n_inputs`` | their counts |
 | ``nominal`` | the nominal :class:`~sail_env.physics.linear.LinearModel` controllers design on |
 | ``constant_term`` | the nominal model's constant drive ``c`` in ``ds/dt = A s + B u + c`` (n,) |
 | ``rate_scale()`` | the nominal model's fastest rate [1/s]: the time scale of the observation |
 | ``start_limits()`` | the largest start (n,) inside the beam for every draw |
 | ``acceleration_m_s2``, ``max_acceleration_m_s2`` | the nominal and the largest axial acceleration (light delay, light-speed check) |
-| ``n_factors``, ``n_draws``, ``draw(rng)``, ``factors(uniforms)``, ``params(factors)`` | the per-episode parameter draw (``n_draws`` uniform numbers of a generator, made factors in a batch) and the arrays it gives |
+| ``spread_fields``, ``n_factors``, ``n_draws``, ``draw(rng)``, ``factors(uniforms)``, ``params(factors)`` | the per-episode parameter draw: the factors' names, their count, ``n_draws`` uniform numbers of a generator made factors in a batch, and the arrays they give |
 | ``step(p, x, u, push)`` | one control step with ``u`` held and a relative push error per environment (``p.step``'s rows: the compiled step's matrix) |
 | ``divergence_groups``, ``diverged(p, x)`` | the divergence rule as data (groups of at most two state rows whose norm must stay within the matching column of ``p.limits``; the compiled step applies it) and the same test in NumPy |
 | ``velocity_rows``, ``with_bias(u)``, ``peak_speed(p, x, u)`` | the lateral velocity rows of ``p.envelope``, the inputs with the constant term's 1, the largest lateral speed with ``u`` held (the reward's envelope) |
@@ -65,6 +66,8 @@ class Plant(Protocol):
     input_units: tuple[str, ...]
     input_ranges: Mapping[str, float]
     fixed_state: Mapping[str, float]
+    radial_pairs: tuple[tuple[int, int], ...]
+    spread_fields: tuple[str, ...]
     jitter_inputs: tuple[int, ...]
     impulse_rows: tuple[int, ...]
     velocity_rows: tuple[int, ...]

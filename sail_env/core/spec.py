@@ -185,7 +185,7 @@ class EpisodeSpec:
         n = self.plant.n_states
         size = np.abs(np.asarray(states, dtype=np.float64)).reshape(-1, n)
         labels = list(self.plant.state_names)
-        for i, j in getattr(self.plant, "radial_pairs", ()):
+        for i, j in self.plant.radial_pairs:
             size[:, i] = size[:, j] = np.hypot(size[:, i], size[:, j])
             labels[i] = labels[j] = f"√({labels[i]}² + {labels[j]}²)"
         beyond = size > self.start_limits

@@ -120,6 +120,8 @@ class LinearPlant:
     biased = False
     #: Quantities a start may name but not change (the 3D sail's spin); none by default.
     fixed_state: Mapping[str, float] = MappingProxyType({})
+    #: Pairs of state rows a start is limited in together (their length), as divergence limits them; none by default.
+    radial_pairs: tuple[tuple[int, int], ...] = ()
     #: The divergence rule as data: the sail has left the beam or the small-angle regime when the
     #: Euclidean norm of a group's state rows (at most two) exceeds that group's column of
     #: ``PlantParams.limits`` (or is NaN). The compiled step and :meth:`diverged` both read it.
