@@ -29,8 +29,8 @@ parameter draws. SI units throughout.
 | ``divergence_groups``, ``diverged(p, x)`` | the divergence rule as data (groups of at most two state rows whose norm must stay within the matching column of ``p.limits``; the compiled step applies it) and the same test in NumPy |
 | ``velocity_rows``, ``with_bias(u)``, ``peak_speed(p, x, u)`` | the lateral velocity rows of ``p.envelope``, the inputs with the constant term's 1, the largest lateral speed with ``u`` held (the reward's envelope) |
 | ``speed(p, t)``, ``pointing(p, x, t)`` | the axial speed and the flight direction ``|V⊥|/Vz`` if the beam is cut at ``t`` |
-| ``noisy``, ``jittered``, ``jitter_inputs``, ``jitter_std(p, t)`` | whether noise acts over the coast; the beam jitter's inputs and size in the window |
-| ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (dust): the rows they kick, their rate and size |
+| ``noisy``, ``jittered``, ``jitter_inputs``, ``jitter_std(p, t)`` | whether noise acts over the coast; the inputs a beam offset moves and the size of the active beam disturbances together (``sail_env.physics.disturbance``'s beam channel) |
+| ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (the impulse channel, e.g. dust): the rows they kick, their rate and size |
 | ``coast_pieces(p, duration)``, ``coast(p, x, u, duration, normals, start_s)`` | the propagation to cut-off with the noise's exact moments, and how many normals it draws |
 """
 
