@@ -31,6 +31,7 @@ from typing import Any
 import gymnasium as gym
 import matplotlib
 import numpy as np
+import scipy.stats
 from tqdm import tqdm
 
 matplotlib.use("Agg")
@@ -131,6 +132,33 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
 def finite_or_none(value: float) -> float | None:
     """JSON has no inf or NaN: diverged episodes point nowhere (null)."""
     return float(value) if math.isfinite(value) else None
+
+
+#: Resamples of the paired bootstrap (:func:`paired_difference`).
+BOOTSTRAP = 10_000
+
+
+def paired_difference(success: np.ndarray, reference: np.ndarray, rng_seed: int = 0) -> dict[str, Any]:
+    """Success of an agent minus a reference's over the same episodes: the difference, its 95 % paired
+    bootstrap interval (episodes resampled together, :data:`BOOTSTRAP` times, a fixed seed) and, for
+    one run, McNemar's exact two-sided p-value on the discordant pairs (``wins``: the agent succeeds
+    where the reference fails; ``losses``: the reverse). ``success`` is booleans (episodes,) or, for
+    several seeds of a learner, (seeds, episodes), whose mean over the seeds is compared."""
+    success, reference = np.asarray(success, bool), np.asarray(reference, bool)
+    runs = success.reshape(-1, success.shape[-1]) if success.ndim else success
+    if success.ndim not in (1, 2) or reference.ndim != 1 or runs.shape[1] != len(reference) or not len(reference):
+        raise ValueError(f"success must be (episodes,) or (seeds, episodes) booleans over the reference's "
+                         f"(episodes,) episodes, got {success.shape} and {reference.shape}")
+    diff = runs.mean(axis=0) - reference.astype(float)
+    rng = np.random.default_rng(rng_seed)
+    resampled = diff[rng.integers(0, len(diff), (BOOTSTRAP, len(diff)))].mean(axis=1)
+    out = {"difference": float(diff.mean()), "ci95": [float(np.quantile(resampled, 0.025)),
+                                                      float(np.quantile(resampled, 0.975))]}
+    if success.ndim == 1:
+        wins, losses = int(np.sum(success & ~reference)), int(np.sum(~success & reference))
+        p = 1.0 if wins + losses == 0 else float(scipy.stats.binomtest(wins, wins + losses, 0.5).pvalue)
+        out.update(wins=wins, losses=losses, mcnemar_p=p)
+    return out
 
 
 def summarise(episodes: list[dict[str, Any]]) -> dict[str, Any]:

@@ -48,11 +48,21 @@ from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError, S
 
 from agents import cli, evaluation, training
 from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, versions
-from sail_env.tasks import PLANAR_TASKS, TASKS
+from sail_env.tasks import PLANAR_TASKS, RIGID3D_TASKS, TASKS
 
 DEFAULT_STORAGE = "sqlite:///runs/grid.db"
 DEFAULT_STUDY = "planar"
-AGENTS = ("passive", "lqr", "lqg", *sorted(ALGOS))
+#: The classical rows of a grid unless ``--classical`` names others.
+CLASSICAL = ("passive", "lqr", "lqg")
+#: Every agent a grid can hold: evaluate.py's baselines (the bounds ``lqr-oracle`` and ``lqg-oracle``
+#: and the adaptive ``lqg-mm`` among them), then the learners.
+AGENTS = (*evaluation.BASELINES, *sorted(ALGOS))
+#: The bounds that read the simulator's truth: the table's ceiling is the best of them on a task.
+CEILING = ("lqr-oracle", "lqg-oracle")
+#: Agents for the 3D tasks only (the adaptive LQG's bank varies the 3D sail's beam power).
+THREE_D_ONLY = frozenset({"lqg-mm"})
+#: What the table compares every row with, episode by episode.
+REFERENCE = "lqg"
 #: ``tuned``: the shipped YAML; ``default``: what a user tries first, the library's own
 #: defaults (no normalisation, one env, ``log_std_init = 0``) on the same budget.
 HYPERPARAMETERS = ("tuned", "default")
@@ -70,7 +80,7 @@ WORKER = f"{socket.gethostname()}:{os.getpid()}"
 GRACE_HEARTBEATS = 2
 COMMANDS = {"run": "a worker: takes cells until none is left (creates the grid on first use)",
             "status": "done, running (where), failed, what remains",
-            "render": "the results table (--readme: also into the README's grid-table markers)",
+            "render": "the results table (--readme: also into that file's --section markers)",
             "redo": "queue the cells of --agents on --envs again (after their code changed)"}
 
 
@@ -96,11 +106,17 @@ class Cell:
 def grid_cells(settings: dict[str, Any]) -> list[Cell]:
     """Classical cells first, then learners by expected cost (cheap tasks, PPO first)."""
     envs, algos = settings["envs"], settings["algos"]
-    cells = [Cell(env, agent, "none", 0) for env in envs for agent in ("passive", "lqr", "lqg")]
+    cells = [Cell(env, agent, "none", 0) for env in envs for agent in classical_agents(settings)
+             if agent not in THREE_D_ONLY or env in RIGID3D_TASKS]
     for hyperparameters in ("tuned", "default"):
         cells += [Cell(env, algo, hyperparameters, seed) for env in envs for algo in algos
                   for seed in settings[f"{hyperparameters}_seeds"]]
     return cells
+
+
+def classical_agents(settings: dict[str, Any]) -> tuple[str, ...]:
+    """The grid's classical agents (:data:`CLASSICAL` in a grid made before ``--classical`` existed)."""
+    return tuple(settings.get("classical", CLASSICAL))
 
 
 def cell_config(cell: Cell, settings: dict[str, Any]) -> dict[str, Any]:
@@ -217,7 +233,8 @@ def redo(study: optuna.Study, agents: list[str], envs: list[str]) -> list[Cell]:
 
 def suggest_cell(trial: optuna.Trial, settings: dict[str, Any]) -> Cell:
     """The cell a queued trial stands for (its params are fixed when enqueued)."""
-    return Cell(trial.suggest_categorical("env", settings["envs"]), trial.suggest_categorical("agent", AGENTS),
+    agents = (*classical_agents(settings), *sorted(ALGOS))  # the choices a grid was made with
+    return Cell(trial.suggest_categorical("env", settings["envs"]), trial.suggest_categorical("agent", agents),
                 trial.suggest_categorical("hyperparameters", ["none", *HYPERPARAMETERS]),
                 trial.suggest_int("seed", 0, max(settings["tuned_seeds"] + settings["default_seeds"] + [0])))
 
@@ -309,7 +326,8 @@ def play(cell: Cell, run_dir: Path) -> dict[str, Any]:
     agent = evaluation.make_agent(agent_spec, env)
     env.close()
     episodes = evaluation.run_batch(cell.env, agent, EPISODES, evaluation.DEFAULT_SEED)
-    return evaluation.summarise(episodes)
+    # Each episode's outcome too: the table pairs every row with LQG's on the same episodes.
+    return {**evaluation.summarise(episodes), "successes": [int(e["success"]) for e in episodes]}
 
 
 def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str, Any]) -> dict[str, Any]:
@@ -449,17 +467,26 @@ def log10(value: float | None) -> float:
 
 
 def table_markdown(study: optuna.Study) -> str:
-    """Per task: each agent's success rate (mean ± std over seeds), median and p90 pointing."""
+    """Per task: each agent's success rate (mean ± std over seeds); its paired difference to LQG on
+    the same episodes (a learner's seeds averaged per episode) with a 95 % bootstrap interval; how far
+    it lies below the ceiling (the best of the bounds :data:`CEILING` in the grid); median and p90
+    pointing; training steps and time."""
     groups: dict[tuple[str, str, str], list[FrozenTrial]] = defaultdict(list)
     for cell, trial in cell_trials(study).items():
         if trial.state == TrialState.COMPLETE:
             groups[(cell.env, cell.agent, cell.hyperparameters)].append(trial)
     settings = study.user_attrs["settings"]
-    lines = ["| task | agent | hyperparameters | seeds | success (mean ± std) | log10 median pointing | "
-             "log10 p90 pointing | training steps | training time per seed |",
-             "|---|---|---|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| task | agent | hyperparameters | seeds | success (mean ± std) | vs LQG (paired, 95 % CI) | "
+             "below the ceiling | log10 median pointing | log10 p90 pointing | training steps | "
+             "training time per seed |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    order = [agent for agent in (*CLASSICAL, "lqg-mm", *sorted(ALGOS), *CEILING) if agent in AGENTS]
     for env in dict.fromkeys(settings["envs"]):  # once each, also in a grid made when repeats were accepted
-        for agent in AGENTS:
+        reference = _successes(groups.get((env, REFERENCE, "none"), []))
+        bounds = [np.mean([t.user_attrs["summary"]["success_rate"] for t in groups[(env, agent, "none")]])
+                  for agent in CEILING if (env, agent, "none") in groups]
+        ceiling = max(bounds) if bounds else None
+        for agent in order:
             for hyperparameters in ("none", *HYPERPARAMETERS):
                 trials = groups.get((env, agent, hyperparameters))
                 if not trials:
@@ -473,12 +500,26 @@ def table_markdown(study: optuna.Study) -> str:
                 steps = f"{int(np.mean([t.user_attrs['timesteps'] for t in trials])):,}" if agent in ALGOS else "–"
                 wall = f"{np.mean([t.user_attrs['wall_time_s'] for t in trials]) / 60:.1f} min" if agent in ALGOS else "–"
                 label = "–" if hyperparameters == "none" else hyperparameters
-                lines.append(f"| {env} | {agent} | {label} | {len(trials)}/{expected} | {100 * success.mean():.1f} %"
-                             f"{spread} | {median.mean():.2f} | {p90.mean():.2f} | {steps} | {wall} |")
+                name = f"{agent} (a bound)" if agent in CEILING else agent
+                versus, own = "–", _successes(trials)
+                if reference is not None and own is not None and agent != REFERENCE:
+                    d = evaluation.paired_difference(own, reference[0])
+                    versus = f"{100 * d['difference']:+.1f} pts ({100 * d['ci95'][0]:+.1f} … {100 * d['ci95'][1]:+.1f})"
+                below = f"{100 * (ceiling - success.mean()):.1f} pts" if ceiling is not None and agent not in CEILING else "–"
+                lines.append(f"| {env} | {name} | {label} | {len(trials)}/{expected} | {100 * success.mean():.1f} %"
+                             f"{spread} | {versus} | {below} | {median.mean():.2f} | {p90.mean():.2f} | {steps} | "
+                             f"{wall} |")
     return "\n".join(lines)
 
 
-#: The README section the grid's table goes into (``render --readme``).
+def _successes(trials: list[FrozenTrial]) -> np.ndarray | None:
+    """Each trial's per-episode outcomes (trials, episodes), or None if a trial predates them."""
+    if not trials or any("successes" not in t.user_attrs["summary"] for t in trials):
+        return None
+    return np.array([t.user_attrs["summary"]["successes"] for t in trials], bool)
+
+
+#: The README section the grid's table goes into (``render --readme``) unless ``--section`` names another.
 README_SECTION = "grid-table"
 README_START, README_END = cli.section_markers(README_SECTION)
 
@@ -514,15 +555,20 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                              f"{GRACE_HEARTBEATS} × --heartbeat)")
     parser.add_argument("--agents", nargs="+", default=[], choices=AGENTS, metavar="AGENT",
                         help=f"redo: the agents whose cells to queue again (on --envs): {', '.join(AGENTS)}")
-    parser.add_argument("--readme", type=Path, help="render: write the table into this README's grid-table markers")
+    parser.add_argument("--readme", type=Path, help="render: write the table into this file's --section markers")
+    parser.add_argument("--section", default=README_SECTION,
+                        help="render: the markers' name (<!-- NAME:start --> … <!-- NAME:end -->)")
+    parser.add_argument("--classical", nargs="+", default=list(CLASSICAL), choices=list(evaluation.BASELINES),
+                        metavar="AGENT", help=f"run: the classical rows ({', '.join(evaluation.BASELINES)}; lqg-mm "
+                                              f"on the 3D tasks only; lqr-oracle and lqg-oracle are bounds)")
     args = parser.parse_args(argv)
-    for flag in ("envs", "algos", "seeds", "default_seeds", "agents"):
+    for flag in ("envs", "algos", "seeds", "default_seeds", "agents", "classical"):
         cli.distinct(getattr(args, flag), f"--{flag.replace('_', '-')}")
     if args.grace < GRACE_HEARTBEATS * args.heartbeat:
         parser.error(f"argument --grace: must be at least {GRACE_HEARTBEATS} × --heartbeat ({args.heartbeat} s), "
                      f"got {args.grace}: a live worker's cell would be handed to a second worker")
     if args.readme is not None:
-        cli.readme_around_section(args.readme, README_SECTION)
+        cli.readme_around_section(args.readme, args.section)
     return args
 
 
@@ -536,6 +582,8 @@ def main(argv: list[str] | None = None) -> int:
         settings = {"envs": args.envs, "algos": args.algos, "tuned_seeds": args.seeds,
                     "default_seeds": args.default_seeds, "timesteps": args.timesteps, "eval_freq": args.eval_freq,
                     "eval_episodes": args.eval_episodes, "save_freq": args.save_freq, "episodes": EPISODES}
+        if args.classical != list(CLASSICAL):  # absent otherwise: a grid made before --classical still opens
+            settings["classical"] = args.classical
         storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command == "run")
         if args.command == "run":
             training.stop_on_signals()
@@ -552,7 +600,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         table = table_markdown(study)
         if args.readme is not None:
-            cli.replace_readme_section(args.readme, README_SECTION, table)
+            cli.replace_readme_section(args.readme, args.section, table)
         print(table)
     return 0
 

@@ -23,32 +23,14 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import scipy.stats
 
 import sail_env  # noqa: F401
-from agents.evaluation import BASELINES, DEFAULT_SEED, make_agent, run_agent, summarise
+from agents.evaluation import BASELINES, DEFAULT_SEED, make_agent, paired_difference, run_agent, summarise
 from agents.sb3 import one_thread_per_process
 
 DEFAULT_ENVS = ("LightSailRealistic-v0", "LightSail3DRealistic-v1")
 DEFAULT_AGENTS = ("passive", "lqr", "lqg", "lqg-oracle", "lqr-oracle")
 REFERENCE = "lqg"
-BOOTSTRAP = 10_000
-
-
-def paired_difference(success: np.ndarray, reference: np.ndarray, rng_seed: int = 0) -> dict[str, Any]:
-    """Success of ``success`` minus ``reference`` (booleans over the same episodes): the difference,
-    its 95 % paired bootstrap interval and McNemar's exact p-value."""
-    success, reference = np.asarray(success, bool), np.asarray(reference, bool)
-    if success.shape != reference.shape or success.ndim != 1 or not len(success):
-        raise ValueError(f"success and reference must be equal-length 1-D, got {success.shape}, {reference.shape}")
-    diff = success.astype(float) - reference.astype(float)
-    rng = np.random.default_rng(rng_seed)
-    resampled = diff[rng.integers(0, len(diff), (BOOTSTRAP, len(diff)))].mean(axis=1)
-    wins, losses = int(np.sum(success & ~reference)), int(np.sum(~success & reference))
-    p = 1.0 if wins + losses == 0 else float(scipy.stats.binomtest(wins, wins + losses, 0.5).pvalue)
-    return {"difference": float(diff.mean()), "ci95": [float(np.quantile(resampled, 0.025)),
-                                                       float(np.quantile(resampled, 0.975))],
-            "wins": wins, "losses": losses, "mcnemar_p": p}
 
 
 def measure(env_id: str, agents: list[str], episodes: int, seed: int, out: Path, results: dict[str, Any],

@@ -18,6 +18,7 @@ from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import optuna
 import pytest
 from optuna.trial import TrialState
@@ -83,6 +84,29 @@ def test_sqlite_grid_runs_resumes_and_renders(tmp_path: Path, monkeypatch: pytes
     capsys.readouterr()
     assert grid.main(["render"]) == 0
     assert capsys.readouterr().out.strip() == table  # the same code plays the same episodes
+
+
+def test_the_ceiling_and_the_paired_comparison_in_the_table(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                            capsys: pytest.CaptureFixture) -> None:
+    """``--classical`` adds the bounds (lqg-mm only where it applies, the 3D tasks); every row is paired
+    with LQG on the same episodes (its interval from the stored outcomes) and measured below the ceiling."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["--study", "ceiling", "--envs", "LightSail-v0", "--algos", "ppo", "--seeds", "0", "--default-seeds",
+            "--classical", "passive", "lqg", "lqg-mm", "lqr-oracle", *TINY]
+    assert grid.main(["run", *argv]) == 0
+    trials = load(grid.DEFAULT_STORAGE, "ceiling").get_trials()
+    assert {t.user_attrs["cell"] for t in trials} == {"LightSail-v0-passive-none-0", "LightSail-v0-lqg-none-0",
+                                                      "LightSail-v0-lqr-oracle-none-0", "LightSail-v0-ppo-tuned-0"}
+    outcome = {t.params["agent"]: t.user_attrs["summary"] for t in trials}
+    capsys.readouterr()
+    assert grid.main(["render", "--study", "ceiling"]) == 0
+    rows = {line.split("|")[2].strip(): line for line in capsys.readouterr().out.strip().splitlines()[2:]}
+    assert set(rows) == {"passive", "lqg", "ppo", "lqr-oracle (a bound)"}
+    passive = np.array(outcome["passive"]["successes"], float) - np.array(outcome["lqg"]["successes"], float)
+    assert f"| {100 * passive.mean():+.1f} pts (" in rows["passive"]
+    ceiling = 100 * outcome["lqr-oracle"]["success_rate"]
+    assert f"| {ceiling - 100 * outcome['passive']['success_rate']:.1f} pts |" in rows["passive"]
+    assert rows["lqg"].split("|")[6].strip() == "–"  # the reference itself
 
 
 def test_a_grid_made_with_other_settings_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,

@@ -9,7 +9,7 @@ import sail_env  # noqa: F401
 from agents import LQGAgent
 from agents.lqr import lqr_gain, state_weights
 from agents.oracle import OracleLQGAgent, OracleLQRAgent, attach, episode_truth
-from benchmarks.ceiling import paired_difference
+from agents.evaluation import paired_difference
 from sail_env.physics import DEEP_DISH
 from sail_env.physics.linear import LinearModel
 
@@ -125,5 +125,15 @@ def test_paired_difference_counts_and_interval():
     assert out["mcnemar_p"] == pytest.approx(0.375)
     assert out["ci95"][0] < 0.25 < out["ci95"][1]
     assert paired_difference(r, a)["difference"] == pytest.approx(-0.25)
-    with pytest.raises(ValueError, match="equal-length"):
+    with pytest.raises(ValueError, match="over the reference's"):
         paired_difference(a, r[:5])
+
+
+def test_paired_difference_of_several_seeds_compares_their_mean():
+    """Two seeds' successes (their mean per episode: 1, 0.5, 0, 0.5) against a reference of
+    (1, 1, 0, 0): +0 on average; no McNemar test (it is for one run's booleans)."""
+    seeds = np.array([[1, 1, 0, 0], [1, 0, 0, 1]], bool)
+    out = paired_difference(seeds, np.array([1, 1, 0, 0], bool))
+    assert out["difference"] == pytest.approx(0.0) and "mcnemar_p" not in out
+    assert out["ci95"][0] < 0 < out["ci95"][1]
+    assert paired_difference(seeds[:1], np.ones(4, bool))["difference"] == pytest.approx(-0.5)
