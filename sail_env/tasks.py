@@ -21,13 +21,16 @@ the 3D deep dish in a flat-top spot of exactly the aperture's size, the seed's i
 edge on the rim makes the force kinked at zero offset. ``LightSail3DRealistic-v1`` is the same task
 in a Gaussian beam of waist ``0.8 a`` (:data:`GAUSSIAN_WAIST_OVER_APERTURE`), with the ground
 jitter's benchmark level recomputed for that beam (docs/physics.md §14): the realistic 3D task.
-``LightSailUncertain-v0`` is v1 whose sail the station does not know: per episode, unobserved, the dish's
+``LightSailUncertain-v1`` is v1 whose sail the station does not know: per episode, unobserved, the dish's
 curvature under load (±20 %), the absorptivity (±50 %), the power that reaches the sail (±20 %) and a
 constant beam offset at the sail (±1 cm per axis) are drawn (docs/physics.md §16, with each size's source
-and which are guesses).
+and which are guesses). ``LightSailUncertain-v0`` drew each of those within ±10 % instead (the beam offset
+±1 mm), by mistake; it stays registered as it played.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 from sail_env.physics.config import DEEP_DISH, SEED
 from sail_env.physics.rigid3d.uncertainty import TASK_UNCERTAINTY
@@ -97,10 +100,13 @@ RIGID3D_TASKS["LightSail3DRealistic-v1"] = {
     "beam_radius_m": GAUSSIAN_WAIST_OVER_APERTURE * SEED.aperture_radius_m,
     "ground_jitter_rad": GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD}
 
-#: LightSailUncertain-v0: LightSail3DRealistic-v1 whose sail the station knows only to within
+#: LightSailUncertain-v1: LightSail3DRealistic-v1 whose sail the station knows only to within
 #: :data:`~sail_env.physics.rigid3d.uncertainty.TASK_UNCERTAINTY` (curvature ±20 %, absorptivity ±50 %,
 #: power at the sail ±20 %, a beam offset ±1 cm; per episode, unobserved; docs/physics.md §16).
+#: LightSailUncertain-v0 drew every one of them within ±parameter_spread (``v0_draws``), by mistake.
 RIGID3D_TASKS["LightSailUncertain-v0"] = {**RIGID3D_TASKS["LightSail3DRealistic-v1"],
+                                          "model_uncertainty": dataclasses.replace(TASK_UNCERTAINTY, v0_draws=True)}
+RIGID3D_TASKS["LightSailUncertain-v1"] = {**RIGID3D_TASKS["LightSail3DRealistic-v1"],
                                           "model_uncertainty": TASK_UNCERTAINTY}
 
 TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}

@@ -167,7 +167,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``start_half_widths`` | see above | 8 half-widths in state order | the box's corner inside the start limits (``√(x² + y²) ≤ a`` and so on) |
     | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power | ``[0, 0.5)`` |
-    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v0``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``≥ 0`` |
+    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v1``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``≥ 0`` |
 
     Numbers may be ints, floats or NumPy real scalars; bools (except for the bool keywords and
     ``power_control``), strings and arrays are refused, each with one ``ValueError`` naming the keyword
@@ -195,7 +195,7 @@ class LightSail3DEnv(LightSailEnv):
     constant torque about y and the equilibrium tilts until the force line passes through the CoM;
     it is modelled fixed in the lab frame (with spin it turns at ``Ω`` in truth, see §15).
 
-    ``model_uncertainty`` (``LightSailUncertain-v0``: curvature ±20 %, absorptivity ±50 %, power at the
+    ``model_uncertainty`` (``LightSailUncertain-v1``: curvature ±20 %, absorptivity ±50 %, power at the
     sail ±20 %, a beam offset ±1 cm; docs/physics.md §16) draws per episode what the ground station
     designs on but cannot know in flight, on top of ``parameter_spread``; nothing of it is observed:
 
@@ -208,6 +208,11 @@ class LightSail3DEnv(LightSailEnv):
 
     ## Version History
 
+    * ``LightSailUncertain-v1`` (lightsail-gym 0.4.0): the uncertain factors are drawn over their
+      documented ranges (curvature ±20 %, absorptivity ±50 %, power ±20 %, beam offset ±1 cm).
+      ``-v0``'s episodes drew every one of them within ``1 ± parameter_spread`` (±10 %, the offset
+      ±1 mm) and none without a spread, because the episode core's batched draw bypassed the plant's
+      own; v0 keeps playing so (``ModelUncertainty.v0_draws``), its numbers unchanged.
     * 0.3.0, every id (no new version: no result changes): the window's step is compiled
       (observations bit for bit, rewards to 1e-11); the axial flight of the relativistic and
       diffracting tasks (``LightSail3DRealistic-v0``/``-v1``) is read from a table 1e-12 from a tight

@@ -1,4 +1,4 @@
-"""LightSailUncertain-v0's draws (sail_env/physics/rigid3d/uncertainty.py) against independent
+"""LightSailUncertain-v1's draws (sail_env/physics/rigid3d/uncertainty.py) against independent
 references: direct surface quadratures of the drawn sail, the plant of that sail built from scratch,
 and the beam offset it stands for."""
 
@@ -92,7 +92,7 @@ def test_the_pointing_bias_is_a_beam_offset():
 
 
 def test_draws_cover_the_task_sizes_and_replay():
-    plant = gym.make("LightSailUncertain-v0").unwrapped.episode_spec.plant
+    plant = gym.make("LightSailUncertain-v1").unwrapped.episode_spec.plant
     draws = np.array([plant.draw(np.random.default_rng(i)) for i in range(400)])
     u = TASK_UNCERTAINTY
     for column, half in zip(range(3, 8), (u.curvature, u.absorptivity, u.power, 1.0, 1.0)):
@@ -101,9 +101,11 @@ def test_draws_cover_the_task_sizes_and_replay():
     assert plant.n_draws == 8
 
 
-def test_registered_as_v1_with_the_uncertainty():
-    kwargs = gym.spec("LightSailUncertain-v0").kwargs
+def test_registered_as_3d_realistic_v1_with_the_uncertainty():
+    kwargs = gym.spec("LightSailUncertain-v1").kwargs
     assert kwargs == {**RIGID3D_TASKS["LightSail3DRealistic-v1"], "model_uncertainty": TASK_UNCERTAINTY}
+    old = gym.spec("LightSailUncertain-v0").kwargs
+    assert old == {**kwargs, "model_uncertainty": dataclasses.replace(TASK_UNCERTAINTY, v0_draws=True)}
 
 
 @pytest.mark.parametrize("fields, match", [({"curvature": 0.6}, "model_uncertainty.curvature"),
@@ -125,3 +127,32 @@ def test_bad_combinations_are_refused():
     with pytest.raises(ValueError, match="model_uncertainty.curvature"):
         gym.make("LightSail3D-v0", model_uncertainty={"curvature": 2.0})
     assert dataclasses.replace(TASK_UNCERTAINTY).scaled(0.5).power == pytest.approx(0.1)
+
+
+def test_the_env_draws_every_factor_over_its_documented_range():
+    """Through reset (the core's batched ``factors``, the path an episode takes), 400 episodes of
+    LightSailUncertain-v1 draw the curvature within 1 ± 0.2, the absorptivity 1 ± 0.5, the power 1 ± 0.2
+    and the beam offsets over ±1 cm, each filling its range; v0 kept its mistake (every factor within
+    1 ± 0.1, the offsets ±1 mm). ``draw`` (one generator) gives what the env gives."""
+    for env_id, half in (("LightSail3DRealistic-v1", None), ("LightSailUncertain-v1", [0.2, 0.5, 0.2, 1.0, 1.0]),
+                         ("LightSailUncertain-v0", [0.1] * 5)):
+        envs = gym.make_vec(env_id, num_envs=400, vectorization_mode="vector_entry_point")
+        envs.reset(seed=3)
+        factors = envs.unwrapped.core.state.params.factors
+        spread = factors[:, :3]
+        assert np.all(np.abs(spread - 1) <= 0.1) and np.abs(spread - 1).max() > 0.095
+        if half is None:
+            assert factors.shape[1] == 3
+            continue
+        extra = np.abs(factors[:, 3:] - 1)
+        assert np.all(extra <= half) and np.all(extra.max(axis=0) > 0.95 * np.array(half)), env_id
+        plant = envs.unwrapped.episode_spec.plant
+        one = plant.draw(np.random.default_rng(7))
+        np.testing.assert_array_equal(one, plant.factors(np.random.default_rng(7).random((1, plant.n_draws)))[0])
+        envs.close()
+
+
+def test_without_a_spread_the_uncertainty_is_still_drawn():
+    plant = UncertainPlant(UncertainTaskConfig(SAIL, **FLIGHT, uncertainty=TASK_UNCERTAINTY))
+    factors = plant.factors(np.random.default_rng(0).random((50, plant.n_draws)))
+    assert plant.n_draws == 5 and np.all(factors[:, :3] == 1.0) and np.abs(factors[:, 3] - 1).max() > 0.15

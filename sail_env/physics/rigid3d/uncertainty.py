@@ -1,5 +1,5 @@
 """What a ground station cannot know about its sail: the per-episode model uncertainty of
-``LightSailUncertain-v0`` (docs/physics.md §16).
+``LightSailUncertain-v1`` (docs/physics.md §16).
 
 The station designs on the sail it built and the beam it sends. In flight four things differ from
 that, per episode, and none is observed (sizes: the task's, :data:`TASK_UNCERTAINTY`):
@@ -41,7 +41,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from sail_env.physics.disturbance import Disturbance
-from sail_env.physics.linear import sample_uniform
 from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
@@ -54,6 +53,10 @@ CURVATURE_NODES = 9
 UNCERTAIN_FIELDS = ("curvature", "absorptivity", "transmission", "bias_x", "bias_y")
 
 
+#: The sizes a :class:`ModelUncertainty` takes and their largest values.
+SIZE_LIMITS = (("curvature", 0.5), ("absorptivity", 1.0), ("power", 0.5), ("pointing_bias_m", math.inf))
+
+
 @dataclasses.dataclass(frozen=True)
 class ModelUncertainty:
     """Per-episode uniform draws a ground station cannot observe (module docstring).
@@ -63,29 +66,37 @@ class ModelUncertainty:
         absorptivity: Relative half-width of the absorptivity, in [0, 1] (the draw stays ``≤ 1``).
         power: Relative half-width of the power that reaches the sail, in [0, 0.5].
         pointing_bias_m: Half-width [m] of a constant beam offset at the sail on each axis, ``≥ 0``.
+        v0_draws: Draw the factors as ``LightSailUncertain-v0`` did by mistake (lightsail-gym 0.3.0):
+            every one uniform within ``1 ± parameter_spread`` whatever the sizes above (with the
+            realistic spread of 0.1: curvature, absorptivity and power ±10 %, the beam offset ±10 %
+            of ``pointing_bias_m``), and none at all without a spread. Kept so that v0 plays as it
+            did; a new task leaves it False.
     """
 
     curvature: float = 0.0
     absorptivity: float = 0.0
     power: float = 0.0
     pointing_bias_m: float = 0.0
+    v0_draws: bool = False
 
     def __post_init__(self) -> None:
-        for name, high in (("curvature", 0.5), ("absorptivity", 1.0), ("power", 0.5), ("pointing_bias_m", math.inf)):
+        for name, high in SIZE_LIMITS:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= high:
                 raise ValueError(f"model_uncertainty.{name} must be a real number in [0, {high}], got {value!r}")
+        if not isinstance(self.v0_draws, bool):
+            raise ValueError(f"model_uncertainty.v0_draws must be True or False, got {self.v0_draws!r}")
 
     @property
     def active(self) -> bool:
-        return any(dataclasses.astuple(self))
+        return any(getattr(self, name) for name, _ in SIZE_LIMITS)
 
     def scaled(self, k: float) -> ModelUncertainty:
         """Every size times ``k`` (the benchmarks' sweep)."""
-        return ModelUncertainty(*(k * v for v in dataclasses.astuple(self)))
+        return dataclasses.replace(self, **{name: k * getattr(self, name) for name, _ in SIZE_LIMITS})
 
 
-#: LightSailUncertain-v0's sizes (module docstring's table).
+#: LightSailUncertain-v1's sizes (module docstring's table).
 TASK_UNCERTAINTY = ModelUncertainty(curvature=0.2, absorptivity=0.5, power=0.2, pointing_bias_m=1e-2)
 
 
@@ -199,12 +210,18 @@ class UncertainPlant(RigidPlant):
     def n_draws(self) -> int:
         return 3 * bool(self.parameter_spread) + len(UNCERTAIN_FIELDS) * self.uncertainty.active
 
-    def draw(self, rng: np.random.Generator) -> np.ndarray:
-        s = self.parameter_spread
-        spread = sample_uniform(rng, 1 - s, 1 + s, 3) if s else np.ones(3)
-        extra = sample_uniform(rng, self._low, self._high, len(UNCERTAIN_FIELDS)) if self.uncertainty.active \
-            else np.ones(len(UNCERTAIN_FIELDS))
-        return np.concatenate([spread, extra])
+    def factors(self, uniforms: np.ndarray) -> np.ndarray:
+        """Mass, inertia and power within ``1 ± parameter_spread`` (the first three uniforms, if there is a
+        spread), then :data:`UNCERTAIN_FIELDS` over the uncertainty's own ranges (the next five)."""
+        if self.uncertainty.v0_draws:
+            return super().factors(uniforms)
+        out = np.ones((len(uniforms), self.n_factors))
+        spread = 3 if self.parameter_spread else 0
+        if spread:
+            out[:, :3] = super().factors(uniforms[:, :3])
+        if self.uncertainty.active:
+            out[:, 3:] = self._low + (self._high - self._low) * uniforms[:, spread:]
+        return out
 
     def params(self, factors: np.ndarray):
         return self._shared if self._shared is not None else self._build(factors, shared=False)
