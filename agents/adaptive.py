@@ -1,5 +1,5 @@
 """A multiple-model adaptive LQG (``lqg-mm``): the best classical design we made for a sail whose
-model the station does not know (``LightSailUncertain-v0``, docs/physics.md §16).
+model the station does not know (``LightSailUncertain-v1``, docs/physics.md §16).
 
 A bank of :class:`~agents.lqg.LQGAgent` loops, each designed (:func:`~agents.lqg.lqg_design`) on one
 model of a grid over what the station cannot know (the sail's stiffness through the power that reaches

@@ -2,7 +2,7 @@
 each agent's paired difference to LQG with a 95 % interval (docs/physics.md §16).
 
     python -m benchmarks.ceiling                                   # both realistic tasks, 200 episodes
-    python -m benchmarks.ceiling --env LightSailUncertain-v0 --agent lqg-robust --episodes 400
+    python -m benchmarks.ceiling --env LightSailUncertain-v1 --agent lqg-robust --episodes 400
     python -m benchmarks.ceiling --env LightSailRealistic-v0 --agent runs/X/best_model.zip --episodes 500
 
 Every agent plays episodes ``seed … seed + n − 1`` (``evaluate.py``'s runner and default seeds), so

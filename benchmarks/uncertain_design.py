@@ -1,4 +1,4 @@
-"""The best classical design for LightSailUncertain-v0 we could make: LQG's input weight and its filter's
+"""The best classical design for LightSailUncertain-v1 we could make: LQG's input weight and its filter's
 model-mismatch floor chosen on selection episodes (seeds 0–99, apart from evaluate.py's 100000+).
 
     python -m benchmarks.uncertain_design [--episodes 100]    # writes benchmarks/results/uncertain_design.json
@@ -24,7 +24,7 @@ from agents.evaluation import run_agent
 from agents.lqg import LQGAgent
 from agents.sb3 import one_thread_per_process
 
-ENV_ID = "LightSailUncertain-v0"
+ENV_ID = "LightSailUncertain-v1"
 INPUT_WEIGHTS = (1.0, 3.0, 10.0, 30.0)
 MISMATCHES = (3e-3, 1e-2, 3e-2)
 SELECTION_SEED = 0
