@@ -11,7 +11,7 @@ selection episode at every evaluation; the curve is the mean over seeds of each 
 success rate, the band its range over seeds. Evaluations are compared at the steps every seed
 reached, up to the first where their steps differ (a resumed run evaluates at shifted steps). With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
 classical agents' success rates on the report's episodes are drawn as horizontal lines (LQG and the
-ceiling: ``lqr-oracle``, ``lqg-oracle``), labelled with their episode count: the selection episodes
+ceiling: ``lqr-oracle``, ``lqg-oracle``; the adaptive ``lqg-mm`` where it was played), labelled with their episode count: the selection episodes
 are other episodes, so the lines are a reference level, not a paired comparison.
 """
 
@@ -31,7 +31,10 @@ import numpy as np  # noqa: E402
 from agents import cli  # noqa: E402
 
 #: The report's agents drawn as reference lines, and their labels.
-REFERENCES = {"lqg": "LQG", "lqr-oracle": "ceiling: LQR oracle", "lqg-oracle": "ceiling: LQG oracle"}
+REFERENCES = {"lqg": "LQG", "lqg-mm": "adaptive LQG (lqg-mm)", "lqr-oracle": "ceiling: LQR oracle",
+              "lqg-oracle": "ceiling: LQG oracle"}
+#: Their line styles, one each (a fifth reference needs a fifth style).
+REFERENCE_STYLES = ("--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)))
 
 
 def curves(pattern: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -86,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     for label, steps, rates, runs in configs:
         line, = ax.plot(steps, 100 * rates.mean(axis=0), label=f"{label} (mean of {len(runs)} seeds, range shaded)")
         ax.fill_between(steps, 100 * rates.min(axis=0), 100 * rates.max(axis=0), color=line.get_color(), alpha=0.2)
-    for (label, (rate, episodes)), style in zip(references.items(), ("--", ":", "-.")):
+    for (label, (rate, episodes)), style in zip(references.items(), REFERENCE_STYLES):
         ax.axhline(100 * rate, color="k", linestyle=style, linewidth=1, label=f"{label}: {rate:.1%} ({episodes} episodes)")
     ax.set_xlabel("env steps")
     ax.set_ylabel("selection success [%]")

@@ -105,3 +105,10 @@ def test_learning_curves_average_the_seeds_and_draw_the_report_lines(tmp_path, c
     assert "2 seeds to 20,000 steps; last evaluation 70.0 % (seeds 60, 80)" in printed
     assert out.stat().st_size > 10_000
     assert learning_curves.main(["--env", "LightSail-v0", "--runs", "no-equals-sign", "--out", str(out)]) == 2
+
+
+def test_every_reference_line_has_a_style():
+    """zip() would drop a reference without one, silently (the fourth, lqg-oracle, once was)."""
+    from benchmarks import learning_curves
+
+    assert len(learning_curves.REFERENCE_STYLES) >= len(learning_curves.REFERENCES)
