@@ -4,10 +4,12 @@ import re
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 import pytest
 
 import sail_env  # noqa: F401
 from sail_env.core.plant import Plant
+from sail_env.tasks import TASKS
 
 ROOT = Path(__file__).parents[2]
 #: The code that must see a sail model only through the contract.
@@ -40,3 +42,14 @@ def test_the_core_envs_and_agents_use_nothing_the_contract_does_not_declare():
     assert used, "the scan found no use of the plant at all"
     undeclared = {name: sorted(files) for name, files in used.items() if name not in declared()}
     assert not undeclared
+
+
+@pytest.mark.parametrize("env_id", sorted(TASKS))
+def test_one_generator_draws_what_the_batched_reset_draws(env_id):
+    """The core draws a batch's parameters as ``factors`` of each generator's uniforms; a plant's
+    ``draw(rng)`` must be that same map (LightSailUncertain-v0 once overrode ``draw`` alone, and its
+    episodes never saw the sizes its tests checked)."""
+    plant = gym.make(env_id).unwrapped.episode_spec.plant
+    drawn = plant.draw(np.random.default_rng(11))
+    batched = plant.factors(np.random.default_rng(11).random((1, plant.n_draws)))[0]
+    np.testing.assert_array_equal(drawn, batched)
