@@ -4,6 +4,7 @@ distribution, disturbances. Controllers read it instead of an env's internals.""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Sequence
 
@@ -224,19 +225,28 @@ class EpisodeSpec:
         window's middle, ``gamma`` (n, m) being the step's input matrix: ``σ² Γ_J Γ_Jᵀ`` over the
         jittered inputs ``J``, plus ``rate · dt · kick²`` on the impulse rows. What a design's
         process noise takes of them (the push noise, which multiplies the state, is the design's own)."""
-        plant, n = self.plant, self.plant.n_states
+        std, kicks = self._window_noise_sizes
+        covariance = np.zeros((self.plant.n_states,) * 2)
+        if std:
+            columns = gamma[:, list(self.plant.jitter_inputs)]
+            covariance += std**2 * columns @ columns.T
+        rows = list(self.plant.impulse_rows)
+        covariance[rows, rows] += kicks
+        return covariance
+
+    @functools.cached_property
+    def _window_noise_sizes(self) -> tuple[float, np.ndarray]:
+        """The beam offsets' per-step standard deviation and the impulse rows' per-step variance
+        ``rate · dt · kick²`` of the nominal sail in the window's middle: computed once (a design per
+        episode, as the oracles make, would otherwise build the nominal model's tables every time)."""
+        plant = self.plant
         nominal = plant.params(np.ones((1, plant.n_factors)))
         middle = np.array([self.window_middle_s])
-        covariance = np.zeros((n, n))
-        if plant.jittered:
-            std = float(np.ravel(plant.jitter_std(nominal, middle))[0])
-            columns = gamma[:, list(plant.jitter_inputs)]
-            covariance += std**2 * columns @ columns.T
-        if plant.impulse_rows:
-            rate, kick = plant.impact_rate_and_std(nominal, middle)
-            rows = list(plant.impulse_rows)
-            covariance[rows, rows] += rate[0] * self.dt * kick[0] ** 2
-        return covariance
+        std = float(np.ravel(plant.jitter_std(nominal, middle))[0]) if plant.jittered else 0.0
+        if not plant.impulse_rows:
+            return std, np.zeros(0)
+        rate, kick = plant.impact_rate_and_std(nominal, middle)
+        return std, rate[0] * self.dt * kick[0] ** 2
 
     @property
     def observation_size(self) -> int:
