@@ -11,6 +11,7 @@ import numpy as np
 
 from sail_env.physics.disturbance import ImpulseDisturbance, register
 from sail_env.physics.rigid3d.limits import DUST_SPEED_M_S, check_dust, check_grain_mass
+from sail_env.physics.rigid3d.plant import OMEGA_X, OMEGA_Y, VX, VY
 
 
 @register
@@ -40,7 +41,6 @@ class Dust(ImpulseDisturbance):
                    self.dust_grain_mass_kg)
 
     def rows(self, plant: Any) -> tuple[int, ...]:
-        from sail_env.physics.rigid3d.plant import OMEGA_X, OMEGA_Y, VX, VY
         return VX, VY, OMEGA_X, OMEGA_Y
 
     def rate_and_kick(self, plant: Any, p: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
