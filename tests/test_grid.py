@@ -295,3 +295,8 @@ def test_a_second_trial_of_a_running_cell_waits_for_its_lock(tmp_path: Path, cap
     second.join(timeout=10)
     assert order == ["first done", "second"]
     assert "another worker still runs this cell; waiting" in capsys.readouterr().out
+
+
+def test_the_table_has_a_row_place_for_every_agent():
+    """An agent missing from ROW_ORDER would be left out of the table without a word."""
+    assert sorted(grid.ROW_ORDER) == sorted(grid.AGENTS)
