@@ -47,7 +47,7 @@ from optuna.exceptions import UpdateFinishedTrialError
 from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError, SQLAlchemyError
 
 from agents import cli, evaluation, training
-from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, versions
+from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, policy_of, versions
 from sail_env.tasks import PLANAR_TASKS, RIGID3D_TASKS, TASKS
 
 DEFAULT_STORAGE = "sqlite:///runs/grid.db"
@@ -65,6 +65,8 @@ THREE_D_ONLY = frozenset({"lqg-mm"})
 REFERENCE = "lqg"
 #: The table's rows on each task: the classical designs, the learners, the bounds last.
 ROW_ORDER = (*CLASSICAL, "lqg-mm", *sorted(ALGOS), *CEILING)
+#: The learners a grid runs unless ``--algos`` names others (``recurrent_ppo`` only when asked).
+LEARNERS = ("ppo", "sac", "td3")
 #: ``tuned``: the shipped YAML; ``default``: what a user tries first, the library's own
 #: defaults (no normalisation, one env, ``log_std_init = 0``) on the same budget.
 HYPERPARAMETERS = ("tuned", "default")
@@ -121,11 +123,18 @@ def classical_agents(settings: dict[str, Any]) -> tuple[str, ...]:
     return tuple(settings.get("classical", CLASSICAL))
 
 
+def learner_choices(settings: dict[str, Any]) -> tuple[str, ...]:
+    """The learners a grid's cells may name: :data:`LEARNERS` in a grid that asked for no other
+    (every grid made before ``recurrent_ppo`` existed: Optuna refuses a parameter whose choices
+    change within a study), else every algorithm."""
+    return tuple(settings.get("learners", LEARNERS))
+
+
 def cell_config(cell: Cell, settings: dict[str, Any]) -> dict[str, Any]:
     """train.py's configuration of a learner cell."""
     hp = load_hyperparams(cell.agent, cell.env)
     if cell.hyperparameters == "default":
-        hp = {"n_timesteps": hp["n_timesteps"], "policy": hp.get("policy", "MlpPolicy")}
+        hp = {"n_timesteps": hp["n_timesteps"], "policy": hp.get("policy", policy_of(cell.agent))}
     if settings["timesteps"] is not None:
         hp["n_timesteps"] = settings["timesteps"]
     return {"algo": cell.agent, "env": cell.env, "seed": cell.seed, "vec_env": "batched",
@@ -235,7 +244,7 @@ def redo(study: optuna.Study, agents: list[str], envs: list[str]) -> list[Cell]:
 
 def suggest_cell(trial: optuna.Trial, settings: dict[str, Any]) -> Cell:
     """The cell a queued trial stands for (its params are fixed when enqueued)."""
-    agents = (*classical_agents(settings), *sorted(ALGOS))  # the choices a grid was made with
+    agents = (*classical_agents(settings), *learner_choices(settings))  # the choices a grid was made with
     return Cell(trial.suggest_categorical("env", settings["envs"]), trial.suggest_categorical("agent", agents),
                 trial.suggest_categorical("hyperparameters", ["none", *HYPERPARAMETERS]),
                 trial.suggest_int("seed", 0, max(settings["tuned_seeds"] + settings["default_seeds"] + [0])))
@@ -537,7 +546,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/grid"), help="where cells keep their files")
     parser.add_argument("--envs", nargs="+", default=list(PLANAR_TASKS), choices=list(TASKS), metavar="ID",
                         help="tasks of the grid")
-    parser.add_argument("--algos", nargs="+", default=sorted(ALGOS), choices=sorted(ALGOS), help="learners of the grid")
+    parser.add_argument("--algos", nargs="+", default=list(LEARNERS), choices=sorted(ALGOS), help="learners of the grid")
     parser.add_argument("--seeds", nargs="+", type=cli.non_negative_int, default=list(SEEDS), help="seeds of the tuned rows")
     parser.add_argument("--default-seeds", nargs="*", type=cli.non_negative_int, default=[0],
                         help="seeds of the library-defaults rows (none: no such rows)")
@@ -585,6 +594,8 @@ def main(argv: list[str] | None = None) -> int:
                     "eval_episodes": args.eval_episodes, "save_freq": args.save_freq, "episodes": EPISODES}
         if args.classical != list(CLASSICAL):  # absent otherwise: a grid made before --classical still opens
             settings["classical"] = args.classical
+        if not set(args.algos) <= set(LEARNERS):  # absent otherwise, as "classical"
+            settings["learners"] = sorted(ALGOS)
         storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command == "run")
         if args.command == "run":
             training.stop_on_signals()

@@ -20,6 +20,8 @@ from typing import Any
 import numpy as np
 import torch
 import yaml
+from sb3_contrib import RecurrentPPO
+from sb3_contrib.common.recurrent.policies import RecurrentActorCriticPolicy
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.noise import NormalActionNoise
@@ -34,9 +36,14 @@ from threadpoolctl import threadpool_limits
 from agents import zoo_syntax
 from sail_env.provenance import package_versions
 
-ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
-#: The policy class stored in a model file tells which algorithm trained it.
-_POLICY_ALGOS = ((ActorCriticPolicy, "ppo"), (SACPolicy, "sac"), (TD3Policy, "td3"))
+ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "recurrent_ppo": RecurrentPPO, "sac": SAC, "td3": TD3}
+#: The algorithms that collect rollouts of ``n_steps`` × ``n_envs`` (train whole rollouts).
+ON_POLICY = frozenset({"ppo", "recurrent_ppo"})
+#: The policy each algorithm trains (the observations are a flat vector); ``MlpPolicy`` otherwise.
+POLICIES = {"recurrent_ppo": "MlpLstmPolicy"}
+#: The policy class stored in a model file tells which algorithm trained it (a subclass before its base).
+_POLICY_ALGOS = ((RecurrentActorCriticPolicy, "recurrent_ppo"), (ActorCriticPolicy, "ppo"), (SACPolicy, "sac"),
+                 (TD3Policy, "td3"))
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 #: Hyperparameters that may be a schedule (``lin_<number>``).
 SCHEDULES = ("learning_rate", "clip_range")
@@ -132,6 +139,11 @@ def normalize_kwargs(value: bool | str | dict[str, Any]) -> dict[str, Any] | Non
     return dict(value)
 
 
+def policy_of(algo: str) -> str:
+    """The policy ``algo`` trains on this env's flat observations."""
+    return POLICIES.get(algo, "MlpPolicy")
+
+
 def frame_stack_of(hyperparams: dict[str, Any]) -> int:
     """How many observations the policy sees at once (``frame_stack``; 1: the newest only)."""
     return int(hyperparams.get("frame_stack", 1))
@@ -196,7 +208,7 @@ def load_normalizer(path: Path, observation_shape: tuple[int, ...]) -> VecNormal
 
 
 def algo_of(model_path: str | Path) -> str:
-    """The algorithm (``ppo``, ``sac``, ``td3``) that wrote a model file."""
+    """The algorithm (a key of :data:`ALGOS`) that wrote a model file."""
     try:
         data, _, _ = load_from_zip_file(model_path, device="cpu", print_system_info=False)
     except Exception as err:  # SB3 raises many types for a damaged zip
@@ -217,7 +229,7 @@ def one_thread_per_process() -> None:
 
 def versions() -> dict[str, str]:
     """Versions of Python and the packages a result depends on."""
-    packages = ("lightsail-gym", "stable-baselines3", "torch", "gymnasium", "numpy", "scipy")
+    packages = ("lightsail-gym", "stable-baselines3", "sb3-contrib", "torch", "gymnasium", "numpy", "scipy")
     return package_versions(*packages)
 
 
@@ -227,7 +239,9 @@ class SB3Agent:
 
     ``trained_env`` is the env id its run was trained on (from ``run.json``), if known. A model
     trained with ``frame_stack`` k > 1 sees what VecFrameStack showed it: the last k normalised
-    observations of each env side by side, oldest first, zeros before the episode's first.
+    observations of each env side by side, oldest first, zeros before the episode's first. A
+    recurrent policy (``recurrent_ppo``) carries its LSTM state from step to step and starts it
+    afresh at an episode's first step, as in training.
     """
 
     def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize | None, name: str,
@@ -235,6 +249,7 @@ class SB3Agent:
         self.model, self.normalizer, self.name, self.trained_env = model, normalizer, name, trained_env
         self.frame_stack = frame_stack
         self.history: np.ndarray | None = None  # the stacked observations; None until an episode's first
+        self.memory: tuple[np.ndarray, ...] | None = None  # a recurrent policy's state; None at an episode's start
 
     @classmethod
     def load(cls, path: str | Path, observation_shape: tuple[int, ...] | None = None,
@@ -294,9 +309,15 @@ class SB3Agent:
             self.history = np.concatenate([self.history[..., observation.shape[-1]:], observation], axis=-1,
                                           dtype=self.history.dtype)
             observation = self.history
-        action, _ = self.model.predict(observation, deterministic=True)
+        if not isinstance(self.model, RecurrentPPO):
+            action, _ = self.model.predict(observation, deterministic=True)
+            return action
+        starts = np.full(observation.shape[:-1] or (1,), self.memory is None)
+        action, self.memory = self.model.predict(observation, state=self.memory, episode_start=starts,
+                                                 deterministic=True)
         return action
 
     def reset(self) -> None:
-        """Forget the stacked observations: the next ``act`` starts an episode (or a batch of them)."""
-        self.history = None
+        """Forget the stacked observations and the recurrent state: the next ``act`` starts an
+        episode (or a batch of them)."""
+        self.history = self.memory = None

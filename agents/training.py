@@ -50,8 +50,9 @@ from stable_baselines3.common.vec_env import (DummyVecEnv, SubprocVecEnv, VecEnv
 import sail_env  # noqa: F401  (registers the env ids)
 from agents import cli
 from agents.cli import positive_int
-from agents.sb3 import (ALGOS, ModelLoadError, algo_kwargs, frame_stack_of, load_hyperparams, load_normalizer,
-                        normalize_kwargs, normalizer_path, one_thread_per_process, save_model, unstacked_shape, versions)
+from agents.sb3 import (ALGOS, ON_POLICY, ModelLoadError, algo_kwargs, frame_stack_of, load_hyperparams, load_normalizer,
+                        normalize_kwargs, normalizer_path, one_thread_per_process, policy_of, save_model, unstacked_shape,
+                        versions)
 from agents.vec_env import BatchedVecEnv
 from sail_env.tasks import TASKS
 
@@ -61,7 +62,6 @@ CHECKPOINT_PREFIX = "rl_model"
 EVAL_SEED_OFFSET = 10_000
 RUNS_ROOT = Path("runs")
 DEFAULT_SAVE_FREQ = 50_000
-PPO_DEFAULT_N_STEPS = inspect.signature(ALGOS["ppo"]).parameters["n_steps"].default
 #: Called after each evaluation with (timesteps, success rate); may raise to stop training
 #: (the hyperparameter search prunes this way).
 EvaluationHook = Callable[[int, float], None]
@@ -77,8 +77,6 @@ RUN_KEYS = frozenset({"n_envs", "n_timesteps", "normalize", "policy", "frame_sta
 WHOLE_NUMBER_MINIMUMS = {"n_timesteps": 1, "n_envs": 1, "frame_stack": 1, "n_steps": 1, "batch_size": 2, "n_epochs": 1,
                          "buffer_size": 1, "learning_starts": 0, "train_freq": 1, "gradient_steps": -1,
                          "target_update_interval": 1, "policy_delay": 1, "sde_sample_freq": -1}
-#: The observations are a flat vector: the CNN and dict policies cannot take them.
-POLICY = "MlpPolicy"
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -146,11 +144,12 @@ def check_hyperparams(config: dict[str, Any]) -> None:
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)) or value < least or value != int(value):
             raise ValueError(f"{where}: {key} must be a whole number >= {least}, got {value!r}")
-    if algo == "ppo" and int(hp.get("n_steps", PPO_DEFAULT_N_STEPS)) * int(hp.get("n_envs", 1)) < 2:
+    if algo in ON_POLICY and rollout_steps(algo, hp) < 2:
         raise ValueError(f"{where}: n_steps × n_envs (PPO's rollout) must be >= 2, "
-                         f"got {hp.get('n_steps', PPO_DEFAULT_N_STEPS)} × {hp.get('n_envs', 1)}")
-    if hp.get("policy", POLICY) != POLICY:
-        raise ValueError(f"{where}: policy must be {POLICY} (the observations are a flat vector), "
+                         f"got {hp.get('n_steps', default_n_steps(algo))} × {hp.get('n_envs', 1)}")
+    # The observations are a flat vector: the CNN and dict policies cannot take them.
+    if hp.get("policy", policy_of(algo)) != policy_of(algo):
+        raise ValueError(f"{where}: policy must be {policy_of(algo)} (the observations are a flat vector), "
                          f"got {hp['policy']!r}")
     accepted = set(inspect.signature(ALGOS[algo]).parameters) | RUN_KEYS | {"noise_type", "noise_std"}
     unknown = sorted(set(hp) - accepted)
@@ -165,10 +164,20 @@ def check_hyperparams(config: dict[str, Any]) -> None:
 
 def whole_rollouts(algo: str, total: int, hp: dict[str, Any]) -> int:
     """PPO collects whole rollouts of ``n_steps × n_envs``: the budget it will really train."""
-    if algo != "ppo":
+    if algo not in ON_POLICY:
         return total
-    rollout = int(hp.get("n_steps", PPO_DEFAULT_N_STEPS)) * int(hp.get("n_envs", 1))
+    rollout = rollout_steps(algo, hp)
     return math.ceil(total / rollout) * rollout
+
+
+def default_n_steps(algo: str) -> int:
+    """An on-policy algorithm's own ``n_steps`` (PPO 2048, RecurrentPPO 128)."""
+    return inspect.signature(ALGOS[algo]).parameters["n_steps"].default
+
+
+def rollout_steps(algo: str, hp: dict[str, Any]) -> int:
+    """Env steps in one rollout of an on-policy algorithm: ``n_steps × n_envs``."""
+    return int(hp.get("n_steps", default_n_steps(algo))) * int(hp.get("n_envs", 1))
 
 
 def fresh_dir(base: Path) -> Path:
@@ -345,7 +354,7 @@ def write_run_json(run_dir: Path, config: dict[str, Any], sessions: list[dict[st
 def build_model(config: dict[str, Any], train_env: VecEnv, resume_from: Path | None) -> BaseAlgorithm:
     """A new model from the hyperparameters, or the checkpoint ``resume_from`` with its buffer."""
     algo, hp = config["algo"], dict(config["hyperparams"])
-    policy = hp.get("policy", POLICY)
+    policy = hp.get("policy", policy_of(algo))
     hp = {k: v for k, v in hp.items() if k not in RUN_KEYS}
     if resume_from is None:
         where = f"{config['hyperparams_file']} [{config['env']}]"

@@ -30,15 +30,15 @@ from optuna.study import MaxTrialsCallback
 from optuna.trial import FrozenTrial, TrialState
 
 from agents import cli, grid, training
-from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams
+from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, policy_of
 from sail_env.tasks import TASKS
 
 ACTIVATIONS = {"tanh": "nn.Tanh", "relu": "nn.ReLU"}
 NET_ARCHS = {"small": [64, 64], "medium": [256, 256]}
 
 
-def sample_ppo(trial: optuna.Trial) -> dict[str, Any]:
-    """PPO's usual search space (as in the Zoo's), with 8 batched envs."""
+def sample_ppo(trial: optuna.Trial, stack: bool = True) -> dict[str, Any]:
+    """PPO's usual search space (as in the Zoo's), with 8 batched envs (a history when ``stack``)."""
     n_steps = trial.suggest_categorical("n_steps", [64, 128, 256, 512, 1024])
     log_std = trial.suggest_float("log_std_init", -3.0, 0.0)
     return {"n_envs": 8, "n_steps": n_steps,
@@ -49,8 +49,18 @@ def sample_ppo(trial: optuna.Trial) -> dict[str, Any]:
             "gae_lambda": trial.suggest_categorical("gae_lambda", [0.9, 0.95, 0.98]),
             "clip_range": trial.suggest_categorical("clip_range", [0.1, 0.2, 0.3]),
             "ent_coef": trial.suggest_float("ent_coef", 1e-8, 1e-2, log=True),
-            "normalize": True, "frame_stack": history(trial),
+            "normalize": True, "frame_stack": history(trial) if stack else 1,
             "policy_kwargs": network(trial, f", log_std_init={log_std:.3f}")}
+
+
+def sample_recurrent_ppo(trial: optuna.Trial) -> dict[str, Any]:
+    """PPO's space with an LSTM in place of the stacked history: its hidden size, whether the critic
+    has its own LSTM (sb3-contrib's ``RecurrentPPO``)."""
+    hp = sample_ppo(trial, stack=False)
+    hidden = trial.suggest_categorical("lstm_hidden_size", [32, 64, 128, 256])
+    critic = trial.suggest_categorical("enable_critic_lstm", [True, False])
+    hp["policy_kwargs"] = hp["policy_kwargs"][:-1] + f", lstm_hidden_size={hidden}, enable_critic_lstm={critic})"
+    return hp
 
 
 def sample_off_policy(trial: optuna.Trial) -> dict[str, Any]:
@@ -72,7 +82,7 @@ def sample_td3(trial: optuna.Trial) -> dict[str, Any]:
             "noise_std": trial.suggest_float("noise_std", 0.01, 0.5, log=True)}
 
 
-SAMPLERS = {"ppo": sample_ppo, "sac": sample_off_policy, "td3": sample_td3}
+SAMPLERS = {"ppo": sample_ppo, "recurrent_ppo": sample_recurrent_ppo, "sac": sample_off_policy, "td3": sample_td3}
 
 
 def history(trial: optuna.Trial) -> int:
@@ -92,7 +102,7 @@ def trial_config(trial: optuna.Trial, algo: str, env_id: str, settings: dict[str
     """train.py's configuration of one trial. A retried trial trains its original's hyperparameters
     (inherited with its user attributes), not a new draw: a search space widened since (as by
     ``frame_stack``) would otherwise add a drawn value and train another configuration."""
-    hp = trial.user_attrs.get("hyperparams") or {"policy": "MlpPolicy", "n_timesteps": settings["timesteps"],
+    hp = trial.user_attrs.get("hyperparams") or {"policy": policy_of(algo), "n_timesteps": settings["timesteps"],
                                                   **SAMPLERS[algo](trial)}
     return {"algo": algo, "env": env_id, "seed": settings["seed"], "vec_env": "batched",
             "eval_freq": settings["eval_freq"], "eval_episodes": settings["eval_episodes"],

@@ -340,6 +340,42 @@ def test_a_frame_stacked_agent_plays_one_episode_as_in_a_batch(stacked_model: Pa
         assert alone["success"] == episode["success"] and np.isclose(alone["return"], episode["return"], rtol=1e-5)
 
 
+@pytest.fixture(scope="module")
+def recurrent_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A RecurrentPPO model (an LSTM of 8) trained for a few hundred steps."""
+    folder = tmp_path_factory.mktemp("recurrent")
+    (folder / "rp.yml").write_text("LightSail-v0:\n  n_timesteps: 256\n  policy: MlpLstmPolicy\n  normalize: true\n"
+                                   "  n_steps: 64\n  batch_size: 64\n"
+                                   "  policy_kwargs: {net_arch: [16, 16], lstm_hidden_size: 8}\n")
+    assert train.main(["--algo", "recurrent_ppo", "--timesteps", "256", "--n-envs", "2", "--eval-freq", "128",
+                       "--eval-episodes", "2", "--config", str(folder / "rp.yml"), "--out", str(folder / "run"),
+                       "--no-progress-bar"]) == 0
+    return folder / "run" / "final_model.zip"
+
+
+def test_a_recurrent_agent_carries_its_memory_through_an_episode_and_forgets_it_at_reset(recurrent_model: Path) -> None:
+    """The LSTM state goes from one step to the next (a memoryless replay acts otherwise) and
+    starts afresh at reset (the same first action twice); one episode alone plays as in a batch."""
+    agent = SB3Agent.load(recurrent_model, (5,))
+    assert agent.name.startswith("recurrent_ppo:")
+    env = gym.make("LightSail-v0")
+    obs, _ = env.reset(seed=5)
+    carried, forgetful = [], []
+    for _ in range(5):
+        carried.append(agent.act(obs))
+        fresh = SB3Agent.load(recurrent_model, (5,))
+        forgetful.append(fresh.act(obs))
+        obs, *_ = env.step(carried[-1])
+    np.testing.assert_array_equal(carried[0], forgetful[0])
+    assert not np.array_equal(np.array(carried[1:]), np.array(forgetful[1:]))
+    agent.reset()
+    np.testing.assert_array_equal(agent.act(env.reset(seed=5)[0]), carried[0])
+    batched = evaluate.run_batch("LightSail-v0", agent, 2, 11)
+    for episode in batched:
+        alone = evaluate.run_episode(gym.make("LightSail-v0"), agent, episode["seed"])
+        assert alone["success"] == episode["success"] and np.isclose(alone["return"], episode["return"], rtol=1e-5)
+
+
 def test_a_frame_stacked_model_needs_its_run_json_to_know_the_stack(stacked_model: Path, tmp_path: Path) -> None:
     copy = tmp_path / "run"
     shutil.copytree(stacked_model.parent, copy)

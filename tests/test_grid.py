@@ -109,6 +109,26 @@ def test_the_ceiling_and_the_paired_comparison_in_the_table(tmp_path: Path, monk
     assert rows["lqg"].split("|")[6].strip() == "–"  # the reference itself
 
 
+def test_a_grid_of_the_recurrent_learner_keeps_the_older_grids_choices(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                          capsys: pytest.CaptureFixture) -> None:
+    """``recurrent_ppo`` runs when asked for. A grid that asks for no learner beyond PPO, SAC and TD3
+    keeps their three choices (Optuna refuses a parameter whose choices change within a study, so
+    the grids made before recurrent_ppo existed still resume)."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["--study", "memory", "--envs", "LightSail-v0", "--algos", "recurrent_ppo", "--seeds", "0",
+            "--default-seeds", "--classical", "lqg", *TINY]
+    assert grid.main(["run", *argv]) == 0
+    study = load(grid.DEFAULT_STORAGE, "memory")
+    assert {t.user_attrs["cell"] for t in study.get_trials()} == {"LightSail-v0-lqg-none-0",
+                                                                  "LightSail-v0-recurrent_ppo-tuned-0"}
+    assert all(t.state == TrialState.COMPLETE for t in study.get_trials())
+    assert grid.learner_choices(study.user_attrs["settings"]) == tuple(sorted(grid.ALGOS))
+    capsys.readouterr()
+    assert grid.main(["render", "--study", "memory"]) == 0
+    assert "| recurrent_ppo |" in capsys.readouterr().out
+    assert grid.learner_choices({"algos": ["ppo"]}) == ("ppo", "sac", "td3")
+
+
 def test_a_grid_made_with_other_settings_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                     capsys: pytest.CaptureFixture) -> None:
     monkeypatch.chdir(tmp_path)

@@ -32,6 +32,22 @@ def test_the_best_trial_is_a_config_train_py_reads(algo: str, tmp_path: Path, mo
                           "--no-progress-bar"]) == 0
 
 
+def test_the_recurrent_search_space_trains(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A draw of RecurrentPPO's space (its smallest rollout: a whole study would train 8k-step rollouts
+    here) is a YAML entry train.py trains, with the LSTM it names and no stacked history."""
+    monkeypatch.chdir(tmp_path)
+    params = {"n_steps": 64, "log_std_init": -1.0, "batch_size": 64, "n_epochs": 5, "learning_rate": 3e-4,
+              "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 1e-6, "net_arch": "small",
+              "activation_fn": "tanh", "lstm_hidden_size": 32, "enable_critic_lstm": False}
+    hp = {"policy": "MlpLstmPolicy", "n_timesteps": 128, **tuning.SAMPLERS["recurrent_ppo"](optuna.trial.FixedTrial(params))}
+    assert hp["frame_stack"] == 1
+    (tmp_path / "rp.yml").write_text(yaml.safe_dump({"LightSail-v0": hp}))
+    assert training.main(["--algo", "recurrent_ppo", "--config", "rp.yml", "--n-envs", "1", "--eval-freq", "0",
+                          "--out", "run", "--no-progress-bar"]) == 0
+    policy = training.ALGOS["recurrent_ppo"].load(tmp_path / "run" / "final_model.zip").policy
+    assert policy.lstm_actor.hidden_size == 32 and policy.lstm_critic is None
+
+
 def test_a_trial_below_the_pruner_stops_at_its_first_evaluation(tmp_path: Path) -> None:
     everything = optuna.pruners.ThresholdPruner(lower=1.5)  # no success rate reaches it
     study = tuning.tune("ppo", "LightSail-v0", f"sqlite:///{tmp_path}/grid.db", "p", 1, SETTINGS, tmp_path / "runs",
