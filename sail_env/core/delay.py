@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sail_env.core.jit import compiled
+from sail_env.jit import compiled
 from sail_env.physics.mission import one_way_light_delay_s
 
 

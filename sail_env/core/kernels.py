@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from sail_env.core.delay import arrived_command
-from sail_env.core.jit import compiled
+from sail_env.jit import compiled
 from sail_env.core.reward import DIVERGENCE_PENALTY, log_ratio_of
 from sail_env.core.state import Slot
 

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from sail_env.core.jit import compiled
+from sail_env.jit import compiled
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 #: Reward: log10 of (pointing / tolerance) is clipped to this range.

@@ -13,8 +13,9 @@ closed form: with the rapidity ``η`` (``γβ = sinh η``, ``(1−β)/(1+β) = e
 nothing cancels near rest). Beyond ``L0`` the push ``F(s)`` of the widened spot (:class:`PushLaw`)
 changes along the flight and the law is integrated by the classical fourth-order Runge–Kutta rule
 on the table's own grid, from the crossing time, which is a node (the push's derivative jumps
-there). Every sum is a fixed-order loop or an element-wise NumPy operation, never a BLAS call, so
-two BLAS kernels build the same table to the last bit (the DOP853 solution this replaces picked its
+there). The push law and the step are compiled (:mod:`sail_env.jit`: the same arithmetic as
+Python's, so the same table to the last bit, for a start-up cost of milliseconds). Every sum is a
+fixed-order loop or an element-wise NumPy operation, never a BLAS call, so two BLAS kernels build the same table to the last bit (the DOP853 solution this replaces picked its
 steps by a BLAS norm and differed by 1.2e-9 between OpenBLAS kernels, docs/physics.md §3). The
 table is read by cubic Hermite interpolation of ``γβ`` and ``D`` with their exact derivatives at
 the nodes; tested against DOP853 at ``rtol`` 1e-13 (``tests/physics/test_flight_table.py``).
@@ -26,6 +27,7 @@ import math
 
 import numpy as np
 
+from sail_env.jit import compiled
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.relativity import diffraction_scale
 from sail_env.physics.rigid3d.body import RigidSail
@@ -60,30 +62,49 @@ class PushLaw:
         near = sail.centred_push(1.0, 1.0)
         count = PUSH_NODES
         # Chebyshev points of the second kind and their barycentric weights (−1)^j, halved at the ends.
-        self._weights = [(-1.0) ** j * (0.5 if j in (0, count - 1) else 1.0) for j in range(count)]
-        self._pieces = []
+        weights = [(-1.0) ** j * (0.5 if j in (0, count - 1) else 1.0) for j in range(count)]
+        pieces = []
         for lo, hi in zip(self.edges[:-1], self.edges[1:]):
             nodes = [0.5 * (lo + hi) + 0.5 * (hi - lo) * math.cos(math.pi * j / (count - 1)) for j in range(count)]
             values = [math.exp(2.0 * x) * sail.centred_push(1.0, math.exp(x)) / near for x in nodes]
-            self._pieces.append((lo, hi, nodes, values))
+            pieces.append((hi, nodes, values))
+        #: What the compiled functions read: each piece's upper end (P,), its nodes and values (P, count), the weights.
+        self.tables = (np.array([p[0] for p in pieces]), np.array([p[1] for p in pieces]),
+                       np.array([p[2] for p in pieces]), np.array(weights))
 
     def inside(self, log_scale: float) -> float:
         """``s² F(s)/F(1)`` at ``ln s`` (≥ 0)."""
-        for lo, hi, nodes, values in self._pieces:
-            if log_scale <= hi:
-                break
-        numerator = denominator = 0.0
-        for node, value, weight in zip(nodes, values, self._weights):
-            gap = log_scale - node
-            if gap == 0.0:
-                return value
-            numerator += weight * value / gap
-            denominator += weight / gap
-        return numerator / denominator
+        return _push_inside(log_scale, *self.tables)
 
     def relative(self, scale: float) -> float:
         """``F(s)/F(1)``."""
-        return 1.0 if scale <= 1.0 else self.inside(math.log(scale)) / scale**2
+        return _push_relative(scale, *self.tables)
+
+
+@compiled
+def _push_inside(log_scale: float, his: np.ndarray, nodes: np.ndarray, values: np.ndarray,
+                 weights: np.ndarray) -> float:
+    """:meth:`PushLaw.inside` from its tables: the first piece whose upper end is at least
+    ``log_scale`` (the last beyond), the barycentric sum over its nodes in order."""
+    piece = his.shape[0] - 1
+    for j in range(his.shape[0]):
+        if log_scale <= his[j]:
+            piece = j
+            break
+    numerator = denominator = 0.0
+    for j in range(weights.shape[0]):
+        gap = log_scale - nodes[piece, j]
+        if gap == 0.0:
+            return values[piece, j]
+        numerator += weights[j] * values[piece, j] / gap
+        denominator += weights[j] / gap
+    return numerator / denominator
+
+
+@compiled
+def _push_relative(scale: float, his: np.ndarray, nodes: np.ndarray, values: np.ndarray, weights: np.ndarray) -> float:
+    """:meth:`PushLaw.relative` from its tables."""
+    return 1.0 if scale <= 1.0 else _push_inside(math.log(scale), his, nodes, values, weights) / scale**2
 
 
 def _closed_form(k: float, t: np.ndarray, relativistic: bool) -> tuple[np.ndarray, ...]:
@@ -128,26 +149,40 @@ def _crossing_time(k: float, length: float, relativistic: bool) -> float:
 
 
 class _Rates:
-    """``(d(γβ)/dt, dD/dt)`` beyond ``L0`` (plain floats: a fixed order of operations)."""
+    """``(d(γβ)/dt, dD/dt)`` beyond ``L0`` and the Runge–Kutta step (compiled: a table takes ~15,000
+    steps; plain floats in a fixed order either way)."""
 
     def __init__(self, k: float, length: float, law: PushLaw, relativistic: bool) -> None:
-        self.k, self.length, self.law, self.relativistic = k, length, law, relativistic
+        self.args = (k, length, relativistic, *law.tables)
 
     def __call__(self, momentum: float, distance: float) -> tuple[float, float]:
-        push = self.k * self.law.relative(distance / self.length)
-        if not self.relativistic:
-            return push, SPEED_OF_LIGHT * momentum
-        energy = math.sqrt(1.0 + momentum * momentum)
-        return push / (energy + momentum) ** 2, SPEED_OF_LIGHT * momentum / energy
+        return _rates(momentum, distance, *self.args)
 
     def rk4(self, momentum: float, distance: float, h: float) -> tuple[float, float]:
         """One classical Runge–Kutta step of ``h`` seconds."""
-        p1, d1 = self(momentum, distance)
-        p2, d2 = self(momentum + 0.5 * h * p1, distance + 0.5 * h * d1)
-        p3, d3 = self(momentum + 0.5 * h * p2, distance + 0.5 * h * d2)
-        p4, d4 = self(momentum + h * p3, distance + h * d3)
-        return (momentum + h / 6.0 * (p1 + 2.0 * p2 + 2.0 * p3 + p4),
-                distance + h / 6.0 * (d1 + 2.0 * d2 + 2.0 * d3 + d4))
+        return _rk4(momentum, distance, h, *self.args)
+
+
+@compiled
+def _rates(momentum: float, distance: float, k: float, length: float, relativistic: bool, his: np.ndarray,
+           nodes: np.ndarray, values: np.ndarray, weights: np.ndarray) -> tuple[float, float]:
+    push = k * _push_relative(distance / length, his, nodes, values, weights)
+    if not relativistic:
+        return push, SPEED_OF_LIGHT * momentum
+    energy = math.sqrt(1.0 + momentum * momentum)
+    return push / (energy + momentum) ** 2, SPEED_OF_LIGHT * momentum / energy
+
+
+@compiled
+def _rk4(momentum: float, distance: float, h: float, k: float, length: float, relativistic: bool, his: np.ndarray,
+         nodes: np.ndarray, values: np.ndarray, weights: np.ndarray) -> tuple[float, float]:
+    law = (k, length, relativistic, his, nodes, values, weights)
+    p1, d1 = _rates(momentum, distance, *law)
+    p2, d2 = _rates(momentum + 0.5 * h * p1, distance + 0.5 * h * d1, *law)
+    p3, d3 = _rates(momentum + 0.5 * h * p2, distance + 0.5 * h * d2, *law)
+    p4, d4 = _rates(momentum + h * p3, distance + h * d3, *law)
+    return (momentum + h / 6.0 * (p1 + 2.0 * p2 + 2.0 * p3 + p4),
+            distance + h / 6.0 * (d1 + 2.0 * d2 + 2.0 * d3 + d4))
 
 
 class FlightTable:

@@ -1,4 +1,6 @@
-"""The one place the core's compiled functions get their compiler options.
+"""The one place the compiled functions get their compiler options: the episode core's kernels
+and the 3D flight's push law and Runge–Kutta step (arithmetic only, so compiled they give Python's
+numbers to the last bit).
 
 ``error_model="numpy"``: a division by zero gives inf/NaN as in NumPy instead of a check and a
 branch on every division (which also stops LLVM from vectorising the loops). ``cache=True``: the
