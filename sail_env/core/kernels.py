@@ -127,31 +127,32 @@ def _diverged(i: int, floats: np.ndarray, layout: np.ndarray, limits: np.ndarray
 def peak_speed(z: np.ndarray, envelope: np.ndarray, model: int, speed_rows: int, speeds: np.ndarray,
                total: np.ndarray) -> float:
     """Largest lateral speed [m/s] over look-ahead table ``model`` of ``envelope`` (the norm of its
-    velocity rows) from ``z`` (at least c): the state and the input held
+    velocity rows) from ``z`` (c,): the state and the input held
     (:func:`sail_env.physics.pointing.peak_speed`). The tables (K, R·c, S) are transposed, so that
     the sums run over all samples at once (each sample's own sum, in the same order); ``speeds`` and
-    ``total`` are scratch (at least S). Written so that LLVM vectorises the loops over samples: no
-    zeroing pass (a sum starts at its first term), the largest value taken in the same loop."""
-    cols, samples = envelope.shape[1] // speed_rows, envelope.shape[2]
+    ``total`` are scratch (at least S)."""
+    cols, samples = z.shape[0], envelope.shape[2]
     for r in range(speed_rows):
-        first = r * cols
-        value = z[0]
         for s in range(samples):
-            speeds[s] = envelope[model, first, s] * value
-        for k in range(1, cols):
+            speeds[s] = 0.0
+        for k in range(cols):
             value = z[k]
+            row = r * cols + k
             for s in range(samples):
-                speeds[s] += envelope[model, first + k, s] * value
-        if r == 0 and speed_rows > 1:
+                speeds[s] += envelope[model, row, s] * value
+        if speed_rows == 1:
+            for s in range(samples):
+                total[s] = abs(speeds[s])
+        elif r == 0:
             for s in range(samples):
                 total[s] = speeds[s] * speeds[s]
-        elif r > 0:
+        else:
             for s in range(samples):
                 total[s] += speeds[s] * speeds[s]
-    best = abs(speeds[0]) if speed_rows == 1 else total[0]
+    best = total[0]
     for s in range(1, samples):
-        size = abs(speeds[s]) if speed_rows == 1 else total[s]
-        best = size if size > best else best  # NaN: kept if first, skipped after (as NumPy's argmax does not)
+        if total[s] > best:
+            best = total[s]
     return math.sqrt(best) if speed_rows > 1 else best
 
 
@@ -241,7 +242,7 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
             z[k] = floats[x0 + k]
         for c in range(m):
             z[n + c] = floats[_fl(layout, _APPLIED, i) + c]
-        speed = peak_speed(z, envelope, i if envelope.shape[0] > 1 else 0, layout[_NR], speeds, total)
+        speed = peak_speed(z[:cols], envelope, i if envelope.shape[0] > 1 else 0, layout[_NR], speeds, total)
         envelope_rad = speed / floats[_fl(layout, _SPEED, i)]
         floats[_fl(layout, _ENV, i)] = envelope_rad
         reward = -log_ratio_of(envelope_rad) / window
