@@ -13,8 +13,11 @@ closed form: with the rapidity ``η`` (``γβ = sinh η``, ``(1−β)/(1+β) = e
 nothing cancels near rest). Beyond ``L0`` the push ``F(s)`` of the widened spot (:class:`PushLaw`)
 changes along the flight and the law is integrated by the classical fourth-order Runge–Kutta rule
 on the table's own grid, from the crossing time, which is a node (the push's derivative jumps
-there). The push law and the step are compiled (:mod:`sail_env.jit`: the same arithmetic as
-Python's, so the same table to the last bit, for a start-up cost of milliseconds). Every sum is a
+there). The push law and the step are compiled (:mod:`sail_env.jit`), in Python's order of
+operations; a square is a product there, correctly rounded, where Python's ``x**2`` goes through the
+C library's ``pow`` (1 ulp off at times, and library-dependent): measured against the Python build,
+42 of the 158,544 entries of the 3D realistic task's table differ, by at most 4e-16 relative, and
+its episodes are the same to the last bit. Every sum is a
 fixed-order loop or an element-wise NumPy operation, never a BLAS call, so two BLAS kernels build the same table to the last bit (the DOP853 solution this replaces picked its
 steps by a BLAS norm and differed by 1.2e-9 between OpenBLAS kernels, docs/physics.md §3). The
 table is read by cubic Hermite interpolation of ``γβ`` and ``D`` with their exact derivatives at
