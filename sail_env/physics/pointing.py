@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sail_env.jit import compiled
 from sail_env.physics.linear import zoh_discretize
 from sail_env.physics.planar import VX, PlanarModel, rates
 
@@ -61,15 +62,49 @@ def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_p
     samples = np.minimum(max_samples, np.maximum(2, np.ceil(horizon / spacing).astype(np.int64) + 1))
     n, m = b.shape[-2:]
     step_phi, step_gamma = zoh_discretize(a.reshape(-1, n, n), b.reshape(-1, n, m), horizon / (samples - 1))
-    k, rows = len(samples), list(rows)
-    phi, gamma = np.broadcast_to(np.eye(n), (k, n, n)), np.zeros((k, n, m))
+    k = len(samples)
     table = np.empty((k, samples.max(), len(rows), n + m))
-    for i in range(samples.max()):
-        table[:, i, :, :n], table[:, i, :, n:] = phi[:, rows], gamma[:, rows]
-        more = i + 1 < samples
-        phi = np.where(more[:, None, None], step_phi @ phi, phi)
-        gamma = np.where(more[:, None, None], step_phi @ gamma + step_gamma, gamma)
+    _fill_envelope(step_phi, step_gamma, samples, np.asarray(rows, dtype=np.int64), table)
     return table.reshape(*a.shape[:-2], samples.max(), len(rows) * (n + m))
+
+
+@compiled
+def _fill_envelope(step_phi: np.ndarray, step_gamma: np.ndarray, samples: np.ndarray, rows: np.ndarray,
+                   table: np.ndarray) -> None:
+    """``table`` (k, S, R, n + m): the rows ``rows`` of ``[Φ(t_i), Γ(t_i)]`` of each model, by the
+    recurrence ``Φ ← Φ₁ Φ``, ``Γ ← Φ₁ Γ + Γ₁`` from ``(I, 0)``, held after its ``samples``. Loops with
+    the sums in a fixed order, not BLAS: the same table whatever the BLAS kernel (a matrix product's
+    last bits depend on it), and no Python loop over the samples (up to 2,048 per model)."""
+    k, n, m = step_gamma.shape
+    phi, gamma = np.empty((n, n)), np.empty((n, m))
+    new_phi, new_gamma = np.empty((n, n)), np.empty((n, m))
+    for j in range(k):
+        for r in range(n):
+            for c in range(n):
+                phi[r, c] = 1.0 if r == c else 0.0
+            for c in range(m):
+                gamma[r, c] = 0.0
+        for i in range(table.shape[1]):
+            for q in range(rows.shape[0]):
+                for c in range(n):
+                    table[j, i, q, c] = phi[rows[q], c]
+                for c in range(m):
+                    table[j, i, q, n + c] = gamma[rows[q], c]
+            if i + 1 >= samples[j]:
+                continue
+            for r in range(n):
+                for c in range(n):
+                    total = 0.0
+                    for t in range(n):
+                        total += step_phi[j, r, t] * phi[t, c]
+                    new_phi[r, c] = total
+                for c in range(m):
+                    total = 0.0
+                    for t in range(n):
+                        total += step_phi[j, r, t] * gamma[t, c]
+                    new_gamma[r, c] = total + step_gamma[j, r, c]
+            phi, new_phi = new_phi, phi
+            gamma, new_gamma = new_gamma, gamma
 
 
 def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray, rows: int = 1) -> np.ndarray:

@@ -74,3 +74,26 @@ def test_an_unstable_sails_look_ahead_is_bounded_so_its_envelope_stays_finite():
     with np.errstate(over="raise", invalid="raise"):
         table = plant.params(np.ones((1, plant.n_factors))).envelope[0]
     assert np.all(np.isfinite(table)) and np.abs(table).max() < np.exp(2 * MAX_LOOKAHEAD_GROWTH)
+
+
+
+def test_the_envelope_recurrence_is_the_exact_propagation_at_its_samples_and_held_after_them():
+    """The table's compiled recurrence (``Φ ← Φ₁ Φ``, ``Γ ← Φ₁ Γ + Γ₁``, fixed-order sums) against
+    ``[Φ(t), Γ(t)]`` computed directly at each sample time by a matrix exponential: two models of
+    different lengths (the shorter repeats its last row), the rows of two velocities (3D-like)."""
+    from sail_env.physics.linear import zoh_discretize
+    from sail_env.physics.pointing import _fill_envelope
+
+    models = [PlanarModel(SEED), PlanarModel(DEEP_DISH)]
+    a, b = np.stack([m.A for m in models]), np.stack([m.B for m in models])
+    h, samples, rows = np.array([1e-3, 2e-3]), np.array([40, 25]), np.array([1, 3])
+    step_phi, step_gamma = zoh_discretize(a, b, h)
+    table = np.full((2, 40, 2, 6), np.nan)
+    _fill_envelope(step_phi, step_gamma, samples, rows, table)
+    for j in range(2):
+        for i in range(samples[j]):
+            phi, gamma = zoh_discretize(a[j:j + 1], b[j:j + 1], np.array([i * h[j]]))
+            expected = np.concatenate([phi[0], gamma[0]], axis=-1)[rows]
+            np.testing.assert_allclose(table[j, i], expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+        assert np.all(table[j, samples[j]:] == table[j, samples[j] - 1])
+
