@@ -73,8 +73,9 @@ def _fill_envelope(step_phi: np.ndarray, step_gamma: np.ndarray, samples: np.nda
                    table: np.ndarray) -> None:
     """``table`` (k, S, R, n + m): the rows ``rows`` of ``[Φ(t_i), Γ(t_i)]`` of each model, by the
     recurrence ``Φ ← Φ₁ Φ``, ``Γ ← Φ₁ Γ + Γ₁`` from ``(I, 0)``, held after its ``samples``. Loops with
-    the sums in a fixed order, not BLAS: the same table whatever the BLAS kernel (a matrix product's
-    last bits depend on it), and no Python loop over the samples (up to 2,048 per model)."""
+    the sums in a fixed order, not BLAS matrix products, whose last bits depend on the BLAS kernel
+    (the step ``Φ₁, Γ₁`` still comes from a matrix exponential); no Python loop over the samples (up
+    to 2,048 per model)."""
     k, n, m = step_gamma.shape
     phi, gamma = np.empty((n, n)), np.empty((n, m))
     new_phi, new_gamma = np.empty((n, n)), np.empty((n, m))
