@@ -43,13 +43,25 @@ def run_copy(model: Path, tmp_path: Path) -> Path:
 @pytest.fixture(scope="module")
 def stacked_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A PPO model trained for a few hundred steps on the last three normalised observations (frame_stack: 3)."""
-    folder = tmp_path_factory.mktemp("stacked")
-    (folder / "fs.yml").write_text("LightSail-v0:\n  n_timesteps: 256\n  policy: MlpPolicy\n  normalize: true\n"
-                                   "  frame_stack: 3\n  n_steps: 64\n  batch_size: 64\n"
-                                   "  policy_kwargs: {net_arch: [16, 16]}\n")
-    assert train.main(["--algo", "ppo", "--timesteps", "256", "--n-envs", "2", "--eval-freq", "0",
-                       "--config", str(folder / "fs.yml"), "--out", str(folder / "run"), "--no-progress-bar"]) == 0
+    return _tiny_run(tmp_path_factory.mktemp("stacked"), "ppo", "policy: MlpPolicy\n  frame_stack: 3\n"
+                     "  policy_kwargs: {net_arch: [16, 16]}", "--eval-freq", "0")
+
+
+def _tiny_run(folder: Path, algo: str, entry: str, *flags: str) -> Path:
+    """The final model of a 256-step run on LightSail-v0 (2 envs, rollouts of 64) with ``entry``'s lines."""
+    (folder / "hp.yml").write_text(f"LightSail-v0:\n  n_timesteps: 256\n  normalize: true\n  n_steps: 64\n"
+                                   f"  batch_size: 64\n  {entry}\n")
+    assert train.main(["--algo", algo, "--timesteps", "256", "--n-envs", "2", "--config", str(folder / "hp.yml"),
+                       "--out", str(folder / "run"), "--no-progress-bar", *flags]) == 0
     return folder / "run" / "final_model.zip"
+
+
+def _plays_alone_as_in_a_batch(agent: SB3Agent) -> None:
+    """One observation (D,) at a time (the trajectory) or a batch (N, D): the same episodes."""
+    batched = evaluate.run_batch("LightSail-v0", agent, 2, 11)
+    for episode in batched:
+        alone = evaluate.run_episode(gym.make("LightSail-v0"), agent, episode["seed"])
+        assert alone["success"] == episode["success"] and np.isclose(alone["return"], episode["return"], rtol=1e-5)
 
 
 def _strict_json(path: Path) -> dict:
@@ -333,24 +345,15 @@ def test_a_frame_stacked_agent_sees_what_vec_frame_stack_showed_in_training(
 
 def test_a_frame_stacked_agent_plays_one_episode_as_in_a_batch(stacked_model: Path) -> None:
     """One observation (D,) at a time (the trajectory) or a batch (N, D): the same episode."""
-    agent = SB3Agent.load(stacked_model, (5,))
-    batched = evaluate.run_batch("LightSail-v0", agent, 2, 11)
-    for episode in batched:
-        alone = evaluate.run_episode(gym.make("LightSail-v0"), agent, episode["seed"])
-        assert alone["success"] == episode["success"] and np.isclose(alone["return"], episode["return"], rtol=1e-5)
+    _plays_alone_as_in_a_batch(SB3Agent.load(stacked_model, (5,)))
 
 
 @pytest.fixture(scope="module")
 def recurrent_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A RecurrentPPO model (an LSTM of 8) trained for a few hundred steps."""
-    folder = tmp_path_factory.mktemp("recurrent")
-    (folder / "rp.yml").write_text("LightSail-v0:\n  n_timesteps: 256\n  policy: MlpLstmPolicy\n  normalize: true\n"
-                                   "  n_steps: 64\n  batch_size: 64\n"
-                                   "  policy_kwargs: {net_arch: [16, 16], lstm_hidden_size: 8}\n")
-    assert train.main(["--algo", "recurrent_ppo", "--timesteps", "256", "--n-envs", "2", "--eval-freq", "128",
-                       "--eval-episodes", "2", "--config", str(folder / "rp.yml"), "--out", str(folder / "run"),
-                       "--no-progress-bar"]) == 0
-    return folder / "run" / "final_model.zip"
+    return _tiny_run(tmp_path_factory.mktemp("recurrent"), "recurrent_ppo", "policy: MlpLstmPolicy\n"
+                     "  policy_kwargs: {net_arch: [16, 16], lstm_hidden_size: 8}", "--eval-freq", "128",
+                     "--eval-episodes", "2")
 
 
 def test_a_recurrent_agent_carries_its_memory_through_an_episode_and_forgets_it_at_reset(recurrent_model: Path) -> None:
@@ -370,10 +373,7 @@ def test_a_recurrent_agent_carries_its_memory_through_an_episode_and_forgets_it_
     assert not np.array_equal(np.array(carried[1:]), np.array(forgetful[1:]))
     agent.reset()
     np.testing.assert_array_equal(agent.act(env.reset(seed=5)[0]), carried[0])
-    batched = evaluate.run_batch("LightSail-v0", agent, 2, 11)
-    for episode in batched:
-        alone = evaluate.run_episode(gym.make("LightSail-v0"), agent, episode["seed"])
-        assert alone["success"] == episode["success"] and np.isclose(alone["return"], episode["return"], rtol=1e-5)
+    _plays_alone_as_in_a_batch(agent)
 
 
 def test_a_frame_stacked_model_needs_its_run_json_to_know_the_stack(stacked_model: Path, tmp_path: Path) -> None:
