@@ -17,9 +17,10 @@ there). The push law and the step are compiled (:mod:`sail_env.jit`), in Python'
 operations; a square is a product there, correctly rounded, where Python's ``x**2`` goes through the
 C library's ``pow`` (1 ulp off at times, and library-dependent): measured against the Python build,
 42 of the 158,544 entries of the 3D realistic task's table differ, by at most 4e-16 relative, and
-its episodes are the same to the last bit. Every sum is a
-fixed-order loop or an element-wise NumPy operation, never a BLAS call, so two BLAS kernels build the same table to the last bit (the DOP853 solution this replaces picked its
-steps by a BLAS norm and differed by 1.2e-9 between OpenBLAS kernels, docs/physics.md §3). The
+its episodes are the same to the last bit. Every sum is a fixed-order loop or an element-wise NumPy
+operation, never a BLAS call, so two BLAS kernels build the same table to the last bit (the DOP853
+solution this replaces picked its steps by a BLAS norm and differed by 1.2e-9 between OpenBLAS
+kernels, docs/physics.md §3). The
 table is read by cubic Hermite interpolation of ``γβ`` and ``D`` with their exact derivatives at
 the nodes; tested against DOP853 at ``rtol`` 1e-13 (``tests/physics/test_flight_table.py``).
 """
@@ -75,10 +76,6 @@ class PushLaw:
         self.tables = (np.array([p[0] for p in pieces]), np.array([p[1] for p in pieces]),
                        np.array([p[2] for p in pieces]), np.array(weights))
 
-    def inside(self, log_scale: float) -> float:
-        """``s² F(s)/F(1)`` at ``ln s`` (≥ 0)."""
-        return _push_inside(log_scale, *self.tables)
-
     def relative(self, scale: float) -> float:
         """``F(s)/F(1)``."""
         return _push_relative(scale, *self.tables)
@@ -87,8 +84,8 @@ class PushLaw:
 @compiled
 def _push_inside(log_scale: float, his: np.ndarray, nodes: np.ndarray, values: np.ndarray,
                  weights: np.ndarray) -> float:
-    """:meth:`PushLaw.inside` from its tables: the first piece whose upper end is at least
-    ``log_scale`` (the last beyond), the barycentric sum over its nodes in order."""
+    """``s² F(s)/F(1)`` at ``ln s = log_scale`` (≥ 0) from :class:`PushLaw`'s tables: the first piece
+    whose upper end is at least ``log_scale`` (the last beyond), the barycentric sum over its nodes in order."""
     piece = his.shape[0] - 1
     for j in range(his.shape[0]):
         if log_scale <= his[j]:
