@@ -78,11 +78,15 @@ class MultipleModelLQGAgent:
                      for i in range(len(factors))]
         self.reset()
 
-    def reset(self) -> None:
+    def reset(self, which: np.ndarray | None = None) -> None:
+        """Start afresh: every episode, or only those where ``which`` (N,) is true."""
         for agent in self.bank:
-            agent.reset()
-        self.score: np.ndarray | None = None
-        self.choice: np.ndarray | None = None
+            agent.reset(which)
+        if which is None or getattr(self, "score", None) is None:
+            self.score: np.ndarray | None = None
+            self.choice: np.ndarray | None = None
+        else:
+            self.score[:, np.asarray(which, dtype=bool)] = 0.0  # forgetting × 0 + cost: a first step's score
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         observations = np.atleast_2d(observation)
@@ -92,5 +96,5 @@ class MultipleModelLQGAgent:
         self.choice = np.argmin(self.score, axis=0)
         command = commands[self.choice, np.arange(len(observations))]
         for agent in self.bank:  # every filter predicts with the command that was sent
-            agent.sent[-1] = command
+            agent.replace_last_command(command)
         return self.spec.input_to_action(command[0] if np.ndim(observation) == 1 else command)

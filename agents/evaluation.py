@@ -41,6 +41,7 @@ import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
 from agents.adaptive import MultipleModelLQGAgent  # noqa: E402
 from agents.oracle import OracleLQGAgent, OracleLQRAgent, attach  # noqa: E402
+from agents.residual import RESIDUAL_BASES, ResidualAgent  # noqa: E402
 from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, describe, fail  # noqa: E402
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
 from sail_env.core.spec import EpisodeSpec  # noqa: E402
@@ -75,6 +76,9 @@ def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Ag
     if agent.trained_env is not None and agent.trained_env != env.spec.id:
         print(f"warning: {spec} was trained on {agent.trained_env} (its run.json), "
               f"evaluated here on {env.spec.id}", file=sys.stderr)
+    if agent.residual is not None:  # the policy corrects a classical controller, which runs beside it
+        base, scale = agent.residual
+        return ResidualAgent(agent, RESIDUAL_BASES[base](env.unwrapped.episode_spec), scale)
     return agent
 
 
@@ -201,7 +205,9 @@ def coinciding(curves: dict[str, np.ndarray]) -> list[list[str]]:
     groups: list[tuple[np.ndarray, list[str]]] = []
     for name, value in zip(curves, values):
         for first, members in groups:
-            if np.nanmax(np.abs(value - first), initial=0.0) <= COINCIDE * span:
+            with np.errstate(invalid="ignore"):  # inf − inf (both diverged) is NaN: it does not part them
+                gap = np.nanmax(np.abs(value - first), initial=0.0)
+            if gap <= COINCIDE * span:
                 members.append(name)
                 break
         else:

@@ -110,30 +110,54 @@ class LQGAgent:
     def kalman_gain(self) -> np.ndarray:
         return self.design.kalman_gain
 
-    def reset(self) -> None:
-        self.step = 0
-        self.sent: list[np.ndarray] = []
-        self.estimate: np.ndarray | None = None
-        self.estimate_step = np.zeros(1, dtype=np.int64)
+    def reset(self, which: np.ndarray | None = None) -> None:
+        """Start afresh: every episode, or only those where ``which`` (N,) is true (the episodes an
+        autoresetting batch has just begun; the others keep their filter and commands)."""
+        if which is None or getattr(self, "steps", None) is None:
+            self.steps: np.ndarray | None = None  # commands each episode has sent (N,); None before the first
+            self._sent: np.ndarray | None = None  # the commands sent, (capacity, N, m), by each episode's step
+            self.estimate: np.ndarray | None = None
+            self.estimate_step: np.ndarray | None = None
+            return
+        which = np.asarray(which, dtype=bool)
+        self.steps[which] = 0  # their stored commands are overwritten before they are read again
+        self._fresh |= which
+
+    @property
+    def last_command(self) -> np.ndarray:
+        """The command (N, m) [SI] each episode sent last."""
+        return self._sent[self.steps - 1, np.arange(len(self.steps))]
+
+    def replace_last_command(self, command: np.ndarray) -> None:
+        """Record ``command`` (N, m) as the one each episode sent last (a bank that acts for its members)."""
+        self._sent[self.steps - 1, np.arange(len(self.steps))] = command
 
     def delay(self, step: np.ndarray) -> np.ndarray:
         """One-way delay [steps] at control steps ``step`` (N,): the nominal rule."""
         return np.asarray(self.spec.delay_steps(step), dtype=np.int64)
 
+    def now(self, n: int) -> np.ndarray:
+        """Each of the ``n`` episodes' control step (N,): the commands it has sent."""
+        if self.steps is None:
+            self.steps = np.zeros(n, dtype=np.int64)
+            self._sent = np.zeros((64, n, self.design.gamma.shape[-1]))
+            self._fresh = np.ones(n, dtype=bool)
+        elif len(self.steps) != n:
+            raise ValueError(f"observation batch must keep its size {len(self.steps)} until reset(), got {n}")
+        return self.steps
+
     def measure(self, observation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The measured state (N, n) and the step it shows (N,)."""
         measured = self.spec.observation_to_state(observation)
-        now = np.full(len(measured), self.step)
+        now = self.now(len(measured))
         return measured, now - self.delay(now)
 
     def _applied(self, step: np.ndarray) -> np.ndarray:
         """The input (N, m) acting during each environment's ``step`` (N,), by the core's delay rule."""
         index = step - self.delay(step)
-        rows = np.arange(len(step))
-        if not self.sent:
-            return np.zeros((len(step), self.design.gamma.shape[-1]))
-        sent = np.stack(self.sent)[np.clip(index, 0, len(self.sent) - 1), rows]
-        return np.where((index >= 0)[:, None], sent, 0.0)
+        rows, sent = np.arange(len(step)), self.steps
+        applied = self._sent[np.clip(index, 0, np.maximum(sent - 1, 0)), rows]
+        return np.where(((index >= 0) & (sent > 0))[:, None], applied, 0.0)
 
     def _predict(self, state: np.ndarray, step: np.ndarray) -> np.ndarray:
         d = self.design
@@ -153,16 +177,22 @@ class LQGAgent:
         measured, shown = self.measure(observations)
         if self.estimate is None:
             self.estimate, self.estimate_step = measured, shown
+        elif self._fresh.any():  # episodes begun since the last command start from their measurement
+            self.estimate = np.where(self._fresh[:, None], measured, self.estimate)
+            self.estimate_step = np.where(self._fresh, shown, self.estimate_step)
+        self._fresh[:] = False
         self.estimate, self.estimate_step = self._advance(self.estimate, self.estimate_step, shown)
         self.innovation = measured - self.estimate
         self.estimate = self.estimate + _apply(self.design.kalman_gain, self.innovation)
         # Predict to the step at which the new command starts to act.
-        now = np.full(len(measured), self.step)
+        now = self.steps
         prediction, _ = self._advance(self.estimate, self.estimate_step, now + self.delay(now))
         scale = self.spec.action_scale
         command = np.clip(-_apply(self.design.gain, prediction), -scale, scale)
-        self.sent.append(command)
-        self.step += 1
+        if now.max() >= len(self._sent):  # a longer episode than stored so far: double the store
+            self._sent = np.concatenate([self._sent, np.zeros_like(self._sent)])
+        self._sent[now, np.arange(len(now))] = command
+        self.steps = now + 1
         return command
 
     def act(self, observation: np.ndarray) -> np.ndarray:

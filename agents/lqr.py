@@ -70,5 +70,5 @@ class LQRAgent:
     def act(self, observation: np.ndarray) -> np.ndarray:
         return self.spec.input_to_action(-self.spec.observation_to_state(observation) @ self.gain.T)
 
-    def reset(self) -> None:
-        """Memoryless."""
+    def reset(self, which: np.ndarray | None = None) -> None:
+        """Memoryless: nothing to forget, for any episode."""

@@ -129,7 +129,7 @@ class OracleLQRAgent(_OracleMixin, LQGAgent):
     def measure(self, observation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The true state now, shown at the current step (the observation is ignored)."""
         state = self._truth().state
-        return state, np.full(len(state), self.step)
+        return state, self.now(len(state))
 
 
 def attach(agent: object, env: gym.Env | gym.vector.VectorEnv) -> None:

@@ -34,6 +34,7 @@ from stable_baselines3.td3.policies import TD3Policy
 from threadpoolctl import threadpool_limits
 
 from agents import zoo_syntax
+from agents.residual import residual_of
 from sail_env.provenance import package_versions
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "recurrent_ppo": RecurrentPPO, "sac": SAC, "td3": TD3}
@@ -245,9 +246,11 @@ class SB3Agent:
     """
 
     def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize | None, name: str,
-                 trained_env: str | None = None, frame_stack: int = 1) -> None:
+                 trained_env: str | None = None, frame_stack: int = 1,
+                 residual: tuple[str, float] | None = None) -> None:
         self.model, self.normalizer, self.name, self.trained_env = model, normalizer, name, trained_env
         self.frame_stack = frame_stack
+        self.residual = residual  # (base, scale) of a residual policy: it sees augmented observations
         self.history: np.ndarray | None = None  # the stacked observations; None until an episode's first
         self.memory: tuple[np.ndarray, ...] | None = None  # a recurrent policy's state; None at an episode's start
 
@@ -269,14 +272,16 @@ class SB3Agent:
         # runs/latest/best_model.zip is named (and recorded) by the run the link points at now.
         run_name = path.resolve().parent.name
         algo = algo_of(path)
-        stats, record, frame_stack = normalizer_path(path), run_record(path), 1
+        stats, record, frame_stack, residual = normalizer_path(path), run_record(path), 1, None
         if record is not None:
             record_path, config = record
             try:
                 normalised = normalize_kwargs(config["hyperparams"].get("normalize", False)) is not None
                 frame_stack = frame_stack_of(config["hyperparams"])
+                residual = residual_of(config["hyperparams"])
             except (KeyError, AttributeError, TypeError, ValueError) as err:
-                raise ModelLoadError(f"{record_path}: no readable hyperparams.normalize/frame_stack ({err})") from err
+                raise ModelLoadError(f"{record_path}: no readable hyperparams.normalize/frame_stack/residual "
+                                     f"({err})") from err
             if normalised != stats.is_file():
                 raise ModelLoadError(f"{stats}: {'not found' if normalised else 'unexpected'}; {record_path} says the "
                                      f"model was trained {'with' if normalised else 'without'} VecNormalize")
@@ -289,13 +294,15 @@ class SB3Agent:
             raise ModelLoadError(f"{path}: cannot load {algo} model ({type(err).__name__}: {err})") from err
         shape = model.observation_space.shape
         trained_env = record[1].get("env") if record is not None else None
+        if observation_shape is not None and residual is not None:  # the env's observation and the base's action
+            observation_shape = (*observation_shape[:-1], observation_shape[-1] + model.action_space.shape[0])
         if observation_shape is not None and shape != (*observation_shape[:-1], observation_shape[-1] * frame_stack):
             hint = f"; this model was trained on {trained_env}: pass --env {trained_env}" if trained_env else ""
             stacked = f" ({frame_stack} stacked)" if frame_stack > 1 else ""
             raise ModelLoadError(f"{path}: trained on observations of shape {shape}{stacked}, "
                                  f"this env has {tuple(observation_shape)}{hint}")
         normalizer = load_normalizer(stats, unstacked_shape(shape, frame_stack)) if stats.is_file() else None
-        return cls(model, normalizer, f"{algo}:{run_name}/{path.stem}", trained_env, frame_stack)
+        return cls(model, normalizer, f"{algo}:{run_name}/{path.stem}", trained_env, frame_stack, residual)
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         """The action for one observation (D,) or a batch (N, D) of episodes started together."""

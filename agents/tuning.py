@@ -2,6 +2,7 @@
 the success rate of train.py's periodic evaluations, in the grid's storage.
 
     python -m agents.tuning --algo sac --env LightSailDeepDish-v0 --trials 40
+    python -m agents.tuning --algo ppo --env LightSailUncertain-v1 --residual lqg-mm   # corrections of lqg-mm
     python train.py --algo sac --env LightSailDeepDish-v0 --config runs/tuning/<study>/best.yml
 
 Each trial is a train.py run (``runs/tuning/<study>/trial-<N>``, numbered ``_2``, … if another
@@ -30,6 +31,7 @@ from optuna.study import MaxTrialsCallback
 from optuna.trial import FrozenTrial, TrialState
 
 from agents import cli, grid, training
+from agents.residual import RESIDUAL_BASES
 from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, policy_of
 from sail_env.tasks import TASKS
 
@@ -91,6 +93,13 @@ def history(trial: optuna.Trial) -> int:
     return trial.suggest_categorical("frame_stack", [1, 2, 4, 8])
 
 
+def residual(trial: optuna.Trial, base: str | None) -> dict[str, Any]:
+    """A residual policy's keys (agents/residual.py): the base controller, the correction's size."""
+    if base is None:
+        return {}
+    return {"residual": base, "residual_scale": trial.suggest_float("residual_scale", 0.05, 1.0, log=True)}
+
+
 def network(trial: optuna.Trial, extra: str) -> str:
     """``policy_kwargs`` in the Zoo's string form, which train.py's YAML reader accepts."""
     arch = NET_ARCHS[trial.suggest_categorical("net_arch", sorted(NET_ARCHS))]
@@ -103,7 +112,7 @@ def trial_config(trial: optuna.Trial, algo: str, env_id: str, settings: dict[str
     (inherited with its user attributes), not a new draw: a search space widened since (as by
     ``frame_stack``) would otherwise add a drawn value and train another configuration."""
     hp = trial.user_attrs.get("hyperparams") or {"policy": policy_of(algo), "n_timesteps": settings["timesteps"],
-                                                  **SAMPLERS[algo](trial)}
+                                                  **SAMPLERS[algo](trial), **residual(trial, settings.get("residual"))}
     return {"algo": algo, "env": env_id, "seed": settings["seed"], "vec_env": "batched",
             "eval_freq": settings["eval_freq"], "eval_episodes": settings["eval_episodes"],
             "save_freq": settings["eval_freq"], "hyperparams_file": f"(optuna trial {trial.number})",
@@ -194,7 +203,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--eval-episodes", type=cli.positive_int, default=50, help="episodes per evaluation")
     parser.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the trials and of the sampler")
     parser.add_argument("--storage", default=grid.DEFAULT_STORAGE, help="SQLAlchemy URL (sqlite:///FILE, postgresql://…)")
-    parser.add_argument("--study", help="study name (default: tune-<algo>-<env>)")
+    parser.add_argument("--residual", choices=list(RESIDUAL_BASES),
+                        help="tune a policy that corrects this controller (agents/residual.py); the search adds "
+                             "the correction's size")
+    parser.add_argument("--study", help="study name (default: tune-<algo>-<env>, tune-<algo>-residual-<base>-<env>)")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/tuning"), help="where trials keep their files")
     try:
         args = parser.parse_args(argv)
@@ -203,8 +215,9 @@ def main(argv: list[str] | None = None) -> int:
         return cli.fail(err)
     timesteps = args.timesteps or int(load_hyperparams(args.algo, args.env)["n_timesteps"])
     settings = {"timesteps": timesteps, "eval_freq": max(timesteps // args.evaluations, 1),
-                "eval_episodes": args.eval_episodes, "seed": args.seed}
-    study_name = args.study or f"tune-{args.algo}-{args.env}"
+                "eval_episodes": args.eval_episodes, "seed": args.seed, "residual": args.residual}
+    kind = f"{args.algo}-residual-{args.residual}" if args.residual else args.algo
+    study_name = args.study or f"tune-{kind}-{args.env}"
     optuna.logging.set_verbosity(optuna.logging.INFO)
     training.stop_on_signals()
     try:

@@ -7,6 +7,7 @@ import json
 import math
 import shutil
 import tempfile
+import warnings
 
 from pathlib import Path
 
@@ -286,6 +287,10 @@ def test_coinciding_curves_are_grouped() -> None:
     curves = {"a": t, "b": t + 0.005, "c": 1 - t, "d": t + 0.5}
     assert evaluate.coinciding(curves) == [["a", "b"]]
     assert evaluate.coinciding({"a": t, "b": t[:10]}) == []
+    diverged = np.where(t > 0.9, np.inf, t)  # diverged episodes' pointing: no warning, still grouped
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert evaluate.coinciding({"a": diverged, "b": diverged + 0.005}) == [["a", "b"]]
 
 
 def test_agent_styles_differ_so_coinciding_curves_stay_visible() -> None:

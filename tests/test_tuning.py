@@ -48,6 +48,15 @@ def test_the_recurrent_search_space_trains(tmp_path: Path, monkeypatch: pytest.M
     assert policy.lstm_actor.hidden_size == 32 and policy.lstm_critic is None
 
 
+def test_a_residual_study_searches_the_correction_size_and_trains_residual_policies(tmp_path: Path) -> None:
+    study = tuning.tune("ppo", "LightSail-v0", f"sqlite:///{tmp_path}/grid.db", "r", 1,
+                        {**SETTINGS, "residual": "lqg"}, tmp_path / "runs")
+    (trial,) = study.get_trials(states=(TrialState.COMPLETE,))
+    assert 0.05 <= trial.params["residual_scale"] <= 1.0
+    recorded = training.read_run(Path(trial.user_attrs["run_dir"]))["config"]["hyperparams"]
+    assert recorded["residual"] == "lqg" and recorded["residual_scale"] == trial.params["residual_scale"]
+
+
 def test_a_trial_below_the_pruner_stops_at_its_first_evaluation(tmp_path: Path) -> None:
     everything = optuna.pruners.ThresholdPruner(lower=1.5)  # no success rate reaches it
     study = tuning.tune("ppo", "LightSail-v0", f"sqlite:///{tmp_path}/grid.db", "p", 1, SETTINGS, tmp_path / "runs",

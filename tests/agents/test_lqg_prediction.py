@@ -29,7 +29,7 @@ def test_lqg_commands_act_on_the_state_at_their_arrival(task, start):
     states, commands = [list(info["state"].values())], []
     for step in range(spec.n_steps):
         action = agent.act(obs)
-        commands.append(agent.sent[-1][0] if agent.sent[-1].ndim > 1 else agent.sent[-1])
+        commands.append(agent.last_command[0])
         obs, _, terminated, _, info = env.step(action)
         states.append(list(info["state"].values()))
         if terminated:

@@ -63,7 +63,7 @@ def test_oracle_lqr_commands_the_drawn_lqr_on_the_state_at_arrival(task):
     states, commands = [episode_truth(env).state[0]], []
     for _ in range(spec.n_steps):
         obs, _, terminated, _, _ = env.step(agent.act(obs))
-        commands.append(agent.sent[-1][0])
+        commands.append(agent.last_command[0])
         states.append(episode_truth(env).state[0])
         if terminated:
             break
