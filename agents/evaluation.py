@@ -4,7 +4,8 @@
     python evaluate.py --env LightSailRealistic-v0 --agent lqg --agent PATH.zip --episodes 200
 
 ``--agent`` is ``passive``, ``lqr``, ``lqg``, ``lqg-mm`` (3D tasks: a bank of LQGs on a grid of models,
-acting with the one that predicts best, agents/adaptive.py), a ceiling ``lqr-oracle`` or ``lqg-oracle`` (bounds that
+acting with the one that predicts best, agents/adaptive.py), ``lqg-mm-offset`` (the same bank estimating
+a constant beam offset, as the uncertain task's pointing bias), a ceiling ``lqr-oracle`` or ``lqg-oracle`` (bounds that
 read the simulator's true state and parameter draw, agents/oracle.py; no station could field them)
 or the path of a model saved by ``train.py`` (loaded with the VecNormalize statistics beside it, acting deterministically; its run's
 ``run.json`` says whether it needs them and which env it was trained on).
@@ -39,7 +40,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 import sail_env  # noqa: F401, E402  (registers the env ids)
 from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
-from agents.adaptive import MultipleModelLQGAgent  # noqa: E402
+from agents.adaptive import MultipleModelLQGAgent, OffsetFreeMultipleModelLQGAgent  # noqa: E402
 from agents.oracle import OracleLQGAgent, OracleLQRAgent, attach  # noqa: E402
 from agents.residual import RESIDUAL_BASES, ResidualAgent  # noqa: E402
 from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, describe, fail  # noqa: E402
@@ -51,8 +52,10 @@ from sail_env.tasks import TASKS  # noqa: E402
 BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent,
                                                         # Bounds that read the simulator's truth (agents/oracle.py).
                                                         "lqr-oracle": OracleLQRAgent, "lqg-oracle": OracleLQGAgent,
-                                                        # Multiple-model adaptive LQG for the 3D tasks (agents/adaptive.py).
-                                                        "lqg-mm": MultipleModelLQGAgent}
+                                                        # Multiple-model adaptive LQG for the 3D tasks (agents/adaptive.py),
+                                                        # and the same bank estimating a beam offset.
+                                                        "lqg-mm": MultipleModelLQGAgent,
+                                                        "lqg-mm-offset": OffsetFreeMultipleModelLQGAgent}
 #: Apart from the seeds train.py trains and selects models on.
 DEFAULT_SEED = 100_000
 #: The tilt on the x axis (the planar model's θ, the 3D model's θy) and the beam inputs acting on it:

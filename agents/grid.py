@@ -60,11 +60,11 @@ AGENTS = (*evaluation.BASELINES, *sorted(ALGOS))
 #: The bounds that read the simulator's truth: the table's ceiling is the best of them on a task.
 CEILING = ("lqr-oracle", "lqg-oracle")
 #: Agents for the 3D tasks only (the adaptive LQG's bank varies the 3D sail's beam power).
-THREE_D_ONLY = frozenset({"lqg-mm"})
+THREE_D_ONLY = frozenset({"lqg-mm", "lqg-mm-offset"})
 #: What the table compares every row with, episode by episode.
 REFERENCE = "lqg"
 #: The table's rows on each task: the classical designs, the learners, the bounds last.
-ROW_ORDER = (*CLASSICAL, "lqg-mm", *sorted(ALGOS), *CEILING)
+ROW_ORDER = (*CLASSICAL, "lqg-mm", "lqg-mm-offset", *sorted(ALGOS), *CEILING)
 #: The learners a grid runs unless ``--algos`` names others (``recurrent_ppo`` only when asked).
 LEARNERS = ("ppo", "sac", "td3")
 #: ``tuned``: the shipped YAML; ``default``: what a user tries first, the library's own
@@ -569,8 +569,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--section", default=README_SECTION,
                         help="render: the markers' name (<!-- NAME:start --> … <!-- NAME:end -->)")
     parser.add_argument("--classical", nargs="+", default=list(CLASSICAL), choices=list(evaluation.BASELINES),
-                        metavar="AGENT", help=f"run: the classical rows ({', '.join(evaluation.BASELINES)}; lqg-mm "
-                                              f"on the 3D tasks only; lqr-oracle and lqg-oracle are bounds)")
+                        metavar="AGENT", help=f"run: the classical rows ({', '.join(evaluation.BASELINES)}; "
+                                              f"{' and '.join(sorted(THREE_D_ONLY))} on the 3D tasks only; "
+                                              f"lqr-oracle and lqg-oracle are bounds)")
     args = parser.parse_args(argv)
     for flag in ("envs", "algos", "seeds", "default_seeds", "agents", "classical"):
         cli.distinct(getattr(args, flag), f"--{flag.replace('_', '-')}")

@@ -54,12 +54,14 @@ class LQGDesign:
 
 
 def lqg_design(spec: EpisodeSpec, a: np.ndarray, b: np.ndarray, constant: np.ndarray,
-               input_weight: float = INPUT_WEIGHT, model_mismatch: float = MODEL_MISMATCH) -> LQGDesign:
+               input_weight: float = INPUT_WEIGHT, model_mismatch: float = MODEL_MISMATCH,
+               offset_walk: float = 0.0) -> LQGDesign:
     """The LQG of the module docstring designed on the model ``ds/dt = A s + B u + c`` (SI).
 
     The process noise uses the task's noise levels and the nominal push sensitivity (it sizes the
     push noise's kick, not the model); ``model_mismatch`` is the per-step floor in state scales
-    (:data:`MODEL_MISMATCH`; larger: a filter that trusts its model less).
+    (:data:`MODEL_MISMATCH`; larger: a filter that trusts its model less). ``offset_walk`` > 0: the
+    offset-free design of :func:`with_offset_estimate`.
     """
     if not (np.isfinite(model_mismatch) and model_mismatch > 0):
         raise ValueError(f"model_mismatch must be finite and > 0, got {model_mismatch!r}")
@@ -76,8 +78,33 @@ def lqg_design(spec: EpisodeSpec, a: np.ndarray, b: np.ndarray, constant: np.nda
                + dist.push_noise**2 * np.outer(push_kick, push_kick)
                + np.diag((model_mismatch * scale) ** 2))
     sensor = np.diag(np.maximum(spec.sensor_noise_std, 1e-6 * scale) ** 2)
+    if offset_walk:
+        return with_offset_estimate(spec, LQGDesign(phi, gamma, drift, gain, np.empty(0)), process, sensor,
+                                    offset_walk)
     covariance = scipy.linalg.solve_discrete_are(phi.T, np.eye(len(scale)), process, sensor)
     return LQGDesign(phi, gamma, drift, gain, covariance @ np.linalg.inv(covariance + sensor))
+
+
+def with_offset_estimate(spec: EpisodeSpec, design: LQGDesign, process: np.ndarray, sensor: np.ndarray,
+                         walk: float) -> LQGDesign:
+    """An offset-free LQG (a disturbance observer; e.g. Pannocchia & Rawlings 2003): a constant beam
+    offset at the sail that the station does not know (a pointing bias) joins the filter's state,
+    one per beam-offset input, as a random walk of ``walk`` × that input's largest command per step,
+    and every command subtracts its estimate. The filter measures the state alone (``[I 0]``)."""
+    if not (np.isfinite(walk) and walk > 0):
+        raise ValueError(f"offset_walk must be finite and > 0, got {walk!r}")
+    offsets = [i for i, name in enumerate(spec.plant.input_names) if "offset" in name]
+    phi, gamma = design.phi, design.gamma
+    n, k, m = len(phi), len(offsets), gamma.shape[1]
+    phi_a = np.block([[phi, gamma[:, offsets]], [np.zeros((k, n)), np.eye(k)]])
+    cancel = np.zeros((m, k))
+    cancel[offsets, np.arange(k)] = 1.0
+    process_a = scipy.linalg.block_diag(process, np.diag((walk * spec.action_scale[offsets]) ** 2))
+    measure = np.hstack([np.eye(n), np.zeros((n, k))])
+    covariance = scipy.linalg.solve_discrete_are(phi_a.T, measure.T, process_a, sensor)
+    kalman_gain = covariance @ measure.T @ np.linalg.inv(measure @ covariance @ measure.T + sensor)
+    return LQGDesign(phi_a, np.vstack([gamma, np.zeros((k, m))]), np.concatenate([design.drift, np.zeros(k)]),
+                     np.hstack([design.gain, cancel]), kalman_gain)
 
 
 def _apply(matrix: np.ndarray, vectors: np.ndarray) -> np.ndarray:
@@ -95,11 +122,11 @@ class LQGAgent:
     name = "lqg"
 
     def __init__(self, spec: EpisodeSpec, input_weight: float = INPUT_WEIGHT,
-                 model_mismatch: float = MODEL_MISMATCH) -> None:
+                 model_mismatch: float = MODEL_MISMATCH, offset_walk: float = 0.0) -> None:
         self.spec = spec
         self.input_weight, self.model_mismatch = input_weight, model_mismatch
         self.design = lqg_design(spec, spec.nominal.A, spec.nominal.B, spec.plant.constant_term, input_weight,
-                                 model_mismatch)
+                                 model_mismatch, offset_walk)
         self.reset()
 
     @property
@@ -175,14 +202,16 @@ class LQGAgent:
         """The beam input (N, m) [SI] for observations (N, D), remembered as sent; the filter's
         innovation (the measurement minus its prediction) is left in :attr:`innovation`."""
         measured, shown = self.measure(observations)
+        # The filter's state: the measured one, then any estimated offsets (zero at the start).
+        start = np.pad(measured, ((0, 0), (0, self.design.phi.shape[-1] - measured.shape[1])))
         if self.estimate is None:
-            self.estimate, self.estimate_step = measured, shown
+            self.estimate, self.estimate_step = start, shown
         elif self._fresh.any():  # episodes begun since the last command start from their measurement
-            self.estimate = np.where(self._fresh[:, None], measured, self.estimate)
+            self.estimate = np.where(self._fresh[:, None], start, self.estimate)
             self.estimate_step = np.where(self._fresh, shown, self.estimate_step)
         self._fresh[:] = False
         self.estimate, self.estimate_step = self._advance(self.estimate, self.estimate_step, shown)
-        self.innovation = measured - self.estimate
+        self.innovation = measured - self.estimate[:, :measured.shape[1]]
         self.estimate = self.estimate + _apply(self.design.kalman_gain, self.innovation)
         # Predict to the step at which the new command starts to act.
         now = self.steps

@@ -9,7 +9,7 @@ models that the bank of ``lqg-mm`` does not hold. Set in a run's hyperparameters
 
 | key | meaning |
 |---|---|
-| ``residual`` | the base: ``lqr``, ``lqg`` or ``lqg-mm`` (classical agents that read only the observation) |
+| ``residual`` | the base: ``lqr``, ``lqg``, ``lqg-mm`` or ``lqg-mm-offset`` (classical agents that read only the observation) |
 | ``residual_scale`` | the correction's largest size in action units, in (0, 1]; default 1 |
 
 In training the base runs inside the vector env (:class:`ResidualVecEnv`, below ``VecNormalize``),
@@ -28,7 +28,7 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
-from agents.adaptive import MultipleModelLQGAgent
+from agents.adaptive import MultipleModelLQGAgent, OffsetFreeMultipleModelLQGAgent
 from agents.lqg import LQGAgent
 from agents.lqr import LQRAgent
 from sail_env.core.spec import EpisodeSpec
@@ -46,7 +46,7 @@ class ResettableAgent(Protocol):
 
 #: The controllers a residual policy may correct: none reads the simulator's truth.
 RESIDUAL_BASES: dict[str, Callable[[EpisodeSpec], ResettableAgent]] = {
-    "lqr": LQRAgent, "lqg": LQGAgent, "lqg-mm": MultipleModelLQGAgent}
+    "lqr": LQRAgent, "lqg": LQGAgent, "lqg-mm": MultipleModelLQGAgent, "lqg-mm-offset": OffsetFreeMultipleModelLQGAgent}
 
 
 def residual_of(hyperparams: dict[str, Any]) -> tuple[str, float] | None:

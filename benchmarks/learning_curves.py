@@ -11,7 +11,7 @@ selection episode at every evaluation; the curve is the mean over seeds of each 
 success rate, the band its range over seeds. Evaluations are compared at the steps every seed
 reached, up to the first where their steps differ (a resumed run evaluates at shifted steps). With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
 classical agents' success rates on the report's episodes are drawn as horizontal lines (LQG and the
-ceiling: ``lqr-oracle``, ``lqg-oracle``; the adaptive ``lqg-mm`` where it was played), labelled with their episode count: the selection episodes
+ceiling: ``lqr-oracle``, ``lqg-oracle``; the adaptive ``lqg-mm`` and ``lqg-mm-offset`` where they were played), labelled with their episode count: the selection episodes
 are other episodes, so the lines are a reference level, not a paired comparison.
 """
 
@@ -31,10 +31,10 @@ import numpy as np  # noqa: E402
 from agents import cli  # noqa: E402
 
 #: The report's agents drawn as reference lines, and their labels.
-REFERENCES = {"lqg": "LQG", "lqg-mm": "adaptive LQG (lqg-mm)", "lqr-oracle": "ceiling: LQR oracle",
-              "lqg-oracle": "ceiling: LQG oracle"}
-#: Their line styles, one each (a fifth reference needs a fifth style).
-REFERENCE_STYLES = ("--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)))
+REFERENCES = {"lqg": "LQG", "lqg-mm": "adaptive LQG (lqg-mm)", "lqg-mm-offset": "adaptive, offset-free (lqg-mm-offset)",
+              "lqr-oracle": "ceiling: LQR oracle", "lqg-oracle": "ceiling: LQG oracle"}
+#: Their line styles, one each (a sixth reference needs a sixth style).
+REFERENCE_STYLES = ("--", ":", (0, (1, 4)), "-.", (0, (5, 1, 1, 1, 1, 1)))
 
 
 def curves(pattern: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -72,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--report", type=Path,
                         help="an evaluate.py report.json or benchmarks.ceiling's JSON, for the reference lines")
     parser.add_argument("--out", type=Path, required=True, help="the PNG to write")
+    parser.add_argument("--legend", choices=("inside", "below"), default="inside",
+                        help="the legend in the axes' lower right corner, or below them")
     try:
         args = parser.parse_args(argv)
         configs = []
@@ -85,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     except (cli.UsageError, OSError, KeyError, json.JSONDecodeError) as err:
         return cli.fail(err)
 
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    fig, ax = plt.subplots(figsize=(7.5, 4.2 if args.legend == "inside" else 5.4))
     for label, steps, rates, runs in configs:
         line, = ax.plot(steps, 100 * rates.mean(axis=0), label=f"{label} (mean of {len(runs)} seeds, range shaded)")
         ax.fill_between(steps, 100 * rates.min(axis=0), 100 * rates.max(axis=0), color=line.get_color(), alpha=0.2)
@@ -96,7 +98,10 @@ def main(argv: list[str] | None = None) -> int:
     ax.set_title(f"{args.env}: success of the deterministic policy on the selection episodes")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower right")
+    if args.legend == "below":  # curves that fill the axes: the legend under them
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
+    else:
+        ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(args.out, dpi=110)

@@ -146,7 +146,7 @@ def _refused(argv: list[str], capsys: pytest.CaptureFixture, monkeypatch: pytest
     (["--episodes", "ten", "--agent", "lqr"], "invalid int value: 'ten'"),
     ([], "the following arguments are required: --agent"),
     (["--agent", "lqr", "--bogus"], "unrecognized arguments: --bogus"),
-    (["--agent", "lqx"], "lqx: neither a baseline (passive, lqr, lqg, lqr-oracle, lqg-oracle, lqg-mm) nor a model file"),
+    (["--agent", "lqx"], "lqx: neither a baseline (passive, lqr, lqg, lqr-oracle, lqg-oracle, lqg-mm, lqg-mm-offset) nor a model file"),
     (["--agent", "lqr", "--agent", "lqr"], "agent names must be distinct"),
 ])
 def test_bad_arguments_are_one_line_and_exit_2_with_nothing_written(
