@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed
+from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed, uncertain_sizes
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -112,3 +112,14 @@ def test_every_reference_line_has_a_style():
     from benchmarks import learning_curves
 
     assert len(learning_curves.REFERENCE_STYLES) >= len(learning_curves.REFERENCES)
+
+
+def test_uncertain_sizes_measures_each_scale_once_and_refuses_one_past_a_limit(tmp_path, capsys):
+    out = tmp_path / "sizes.json"
+    uncertain_sizes.main(["--episodes", "1", "--scales", "1", "2.5", "--out", str(out)])
+    results = json.loads(out.read_text())
+    assert set(results["x1"]["agents"]) == {"lqg", "lqg-mm-offset", "bank spanning the sizes", "lqg-oracle"}
+    assert "absorptivity" in results["x2.5"]["refused"]
+    capsys.readouterr()
+    uncertain_sizes.main(["--episodes", "1", "--scales", "1", "--out", str(out)])  # measured: kept, not replayed
+    assert "x1 lqg" not in capsys.readouterr().out
