@@ -13,6 +13,8 @@
   absorption, whose tilt is slowly unstable: 12 % against 100 % success.)
 * A known constant term of the model (a payload off the sail axis, docs/physics.md §15) drives
   the prediction too; the gain does not cancel it (the loop settles where the sail is at rest).
+  An unknown constant beam offset can join the filter's state instead (``offset_walk``,
+  :func:`with_offset_estimate`: the offset-free design of ``lqg-mm-offset``).
 
 :func:`lqg_design` is the design on one model ``(A, B, c)``; :class:`LQGAgent` runs it on the
 nominal model, the noise levels and the nominal light delay: the episode's randomised parameters
