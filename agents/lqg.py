@@ -30,6 +30,7 @@ import numpy as np
 import scipy.linalg
 
 from agents.lqr import INPUT_WEIGHT, lqr_gain, state_weights
+from sail_env.core.delay import arrived_commands
 from sail_env.core.spec import EpisodeSpec
 from sail_env.physics.linear import LinearModel, zoh_discretize
 
@@ -183,10 +184,10 @@ class LQGAgent:
 
     def _applied(self, step: np.ndarray) -> np.ndarray:
         """The input (N, m) acting during each environment's ``step`` (N,), by the core's delay rule."""
-        index = step - self.delay(step)
-        rows, sent = np.arange(len(step)), self.steps
-        applied = self._sent[np.clip(index, 0, np.maximum(sent - 1, 0)), rows]
-        return np.where(((index >= 0) & (sent > 0))[:, None], applied, 0.0)
+        index = np.empty(len(step), dtype=np.int64)
+        arrived_commands(step, self.delay(step), self.steps - 1, index)
+        applied = self._sent[np.maximum(index, 0), np.arange(len(step))]
+        return np.where((index >= 0)[:, None], applied, 0.0)
 
     def _predict(self, state: np.ndarray, step: np.ndarray) -> np.ndarray:
         d = self.design

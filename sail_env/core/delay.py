@@ -29,3 +29,10 @@ def arrived_command(step: int, delay: int, newest: int) -> int:
     (the beam input is then zero). The compiled step and the LQG's predictor both ask this."""
     sent = min(step - delay, newest)
     return sent if sent >= 0 else -1
+
+
+@compiled
+def arrived_commands(steps: np.ndarray, delays: np.ndarray, newest: np.ndarray, out: np.ndarray) -> None:
+    """:func:`arrived_command` of each environment (arrays (N,) of integers) into ``out`` (N,)."""
+    for i in range(steps.shape[0]):
+        out[i] = arrived_command(steps[i], delays[i], newest[i])
