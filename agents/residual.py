@@ -87,9 +87,8 @@ class ResidualVecEnv(VecEnvWrapper):
     def __init__(self, venv: VecEnv, base: str, scale: float) -> None:
         spec = venv.get_attr("episode_spec", [0])[0]
         self.base, self.scale = RESIDUAL_BASES[base](spec), scale
-        n_actions = venv.action_space.shape[0]
-        super().__init__(venv, observation_space=augmented_space(venv.observation_space, n_actions))
-        self._base_action = np.zeros((venv.num_envs, n_actions), np.float32)
+        super().__init__(venv, observation_space=augmented_space(venv.observation_space, venv.action_space.shape[0]))
+        self._base_action: np.ndarray | None = None  # the base's action for the current observations (after reset)
 
     def reset(self) -> np.ndarray:
         observation = self.venv.reset()
