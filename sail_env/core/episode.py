@@ -253,8 +253,8 @@ class EpisodeCore:
         plant = self.spec.plant
         biased = plant.with_bias(u)
         out = np.empty(len(index))
-        kernels.peak_speeds(index, np.ascontiguousarray(x), np.ascontiguousarray(biased), x.shape[1] + biased.shape[1],
-                            len(plant.velocity_rows), self.envelope_tables, out)
+        kernels.peak_speeds(index, np.ascontiguousarray(x), np.ascontiguousarray(biased), len(plant.velocity_rows),
+                            self.envelope_tables, out)
         return out
 
     # ------------------------------------------------------------------ coast and observation

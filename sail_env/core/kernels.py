@@ -11,6 +11,16 @@ Every kernel takes the :class:`~sail_env.core.state.EpisodeState`'s buffers (``f
 push noise) and the plant's arrays (``steps`` (K, P·n, c), ``envelope`` (K, R·c, S): the look-ahead
 tables transposed (``EpisodeCore.envelope_tables``), ``limits`` (K, G); K = 1 when every environment
 shares the model). The caller allocates the outputs.
+
+The step takes the environments in blocks of :data:`BLOCK`. The two costly stages, the plant step
+and the envelope (:func:`_physics`, :func:`_peak_speeds`), run across a block's environments in
+their inner loop when all share one model: LLVM vectorises that loop (with a model per
+environment the tables do not fit the cache across a block, and a lone environment has no
+block, so those run one environment at a time, over the samples). Either way every environment's
+arithmetic is a scalar step's, in the same order: a batch gives each environment's numbers to the
+last bit, whatever N is. Scratch is indexed by two subscripts, never sliced per environment (a view
+costs two atomic reference counts) and never by ``s·B + b`` (LLVM cannot drop that index's
+negative-index check, so the accesses would not look consecutive).
 """
 
 from __future__ import annotations
@@ -25,6 +35,11 @@ from sail_env.core.reward import DIVERGENCE_PENALTY, log_ratio_of
 from sail_env.core.state import Slot
 
 OBSERVATION_LIMIT = 1e3
+#: Environments a step takes together through each stage (their scratch stays in the L1 cache).
+BLOCK = 32
+#: Below this many environments in a block (or with a model per environment) the physics and the
+#: envelope run one environment at a time; from it on, with one shared model, across the block.
+_FEW = 4
 
 # The layout's entries as plain integers (compile-time constants in the kernels).
 _N, _NS, _NI, _NC, _NP, _NR, _NJ, _NIMP = (int(s) for s in (Slot.ENVS, Slot.STATES, Slot.INPUTS, Slot.COLUMNS,
@@ -58,55 +73,76 @@ def _it(layout: np.ndarray, slot: int, i: int) -> int:
 
 
 @compiled
-def _applied(i: int, step: int, newest: int, u: np.ndarray, floats: np.ndarray, ints: np.ndarray,
+def _applied(i: int, step: int, newest: int, work: np.ndarray, b: int, floats: np.ndarray, ints: np.ndarray,
              layout: np.ndarray) -> None:
-    """Write into ``u[:m]`` the command acting on environment ``i`` during ``step`` (zero before any arrives)."""
-    m, ring = layout[_NI], layout[_CR]
+    """Write into rows n … n + m - 1 of column ``b`` of ``work`` (the inputs' rows of :func:`_physics`)
+    the command acting on environment ``i`` during ``step`` (zero before any arrives)."""
+    n, m, ring = layout[_NS], layout[_NI], layout[_CR]
     sent = arrived_command(step, ints[_it(layout, _DELAY, i) + step], newest)
     base = _fl(layout, _CMDS, i) + (sent % ring) * m
     for c in range(m):
-        u[c] = floats[base + c] if sent >= 0 else 0.0
+        work[n + c, b] = floats[base + c] if sent >= 0 else 0.0
 
 
 @compiled
-def _physics(i: int, column: int, u: np.ndarray, z: np.ndarray, floats: np.ndarray, layout: np.ndarray,
-             consts: np.ndarray, steps: np.ndarray) -> None:
-    """One plant step of environment ``i`` (its state in ``floats``, updated in place) with input
-    ``u`` (m, and 1 for a constant term) and the per-step noise of noise step ``column``.
-    ``u`` receives the jitter; ``z`` is scratch (n + columns)."""
-    n, m, cols, powers = layout[_NS], layout[_NI], layout[_NC], layout[_NP]
-    x0 = _fl(layout, _X, i)
-    normals = _fl(layout, _NORM, i)
-    jittered = layout[_NJ]
-    if jittered:
-        std = floats[_fl(layout, _JSTD, i) + column]
-        for j in range(jittered):
-            u[layout[_TABLES + j]] += std * floats[normals + layout[_OJN] + column * jittered + j]
-    pushed = layout[_PUSHED] == 1
-    eps = consts[m + 2 * n] * floats[normals + layout[_OPN] + column] if pushed else 0.0
-    power = layout[_POWER]
-    if power >= 0:
-        eps = (1.0 + u[power]) * (1.0 + eps) - 1.0 if pushed else u[power]
-    for k in range(n):
-        z[k] = floats[x0 + k]
-    for k in range(cols - n):
-        z[n + k] = u[k]
-    model = i if steps.shape[0] > 1 else 0  # indexed, not a view: a view costs two atomic reference counts
-    for r in range(n):  # Horner's scheme in ε over the push expansion's rows, highest power first
-        out = 0.0
-        for p in range(powers - 1, -1, -1):
-            row = 0.0
-            for k in range(cols):
-                row += steps[model, p * n + r, k] * z[k]
-            out = row + eps * out if p < powers - 1 else row
-        floats[x0 + r] = out
-    impacts = layout[_NIMP]
-    if impacts:
-        count = math.sqrt(floats[_fl(layout, _ICNT, i) + column])
-        for j in range(impacts):
-            kick = count * floats[_fl(layout, _ISTD, i) + j]
-            row = layout[_TABLES + jittered + j]
-            floats[x0 + row] += kick * floats[normals + layout[_OIN] + column * impacts + j]
+def _physics(block: np.ndarray, count: int, work: np.ndarray, sums: np.ndarray, floats: np.ndarray,
+             layout: np.ndarray, consts: np.ndarray, steps: np.ndarray) -> None:
+    """One plant step of environments ``block[0, :count]`` (their states in ``floats``, updated in
+    place) with the per-step noise of noise steps ``block[1, :count]``. Column ``b`` of ``work``
+    (:func:`scratch`) holds environment ``b``'s inputs in rows n … c - 1 (m, and 1 for a constant
+    term; the jitter is added there); the rest of it and ``sums`` (B) are scratch.
+
+    With one model for all and at least :data:`_FEW` environments the sums run across the block's
+    environments in the inner loop (LLVM vectorises it); otherwise one environment at a time. Each
+    environment's arithmetic is the same either way, in the same order: the numbers do not depend
+    on the block. (Scratch is indexed, never sliced: a view costs two atomic reference counts.)"""
+    n, cols, powers = layout[_NS], layout[_NC], layout[_NP]
+    result, eps = cols, cols + n  # rows of work
+    jittered, pushed, power, impacts = layout[_NJ], layout[_PUSHED] == 1, layout[_POWER], layout[_NIMP]
+    for b in range(count):
+        i, column = block[0, b], block[1, b]
+        x0, normals = _fl(layout, _X, i), _fl(layout, _NORM, i)
+        for k in range(n):
+            work[k, b] = floats[x0 + k]
+        if jittered:
+            std = floats[_fl(layout, _JSTD, i) + column]
+            for j in range(jittered):
+                work[n + layout[_TABLES + j], b] += std * floats[normals + layout[_OJN] + column * jittered + j]
+        e = consts[layout[_NI] + 2 * n] * floats[normals + layout[_OPN] + column] if pushed else 0.0
+        if power >= 0:
+            e = (1.0 + work[n + power, b]) * (1.0 + e) - 1.0 if pushed else work[n + power, b]
+        work[eps, b] = e
+    if steps.shape[0] == 1 and count >= _FEW:
+        for r in range(n):  # Horner's scheme in ε over the push expansion's rows, highest power first
+            for p in range(powers - 1, -1, -1):
+                for b in range(count):
+                    sums[b] = 0.0
+                for k in range(cols):  # into another array than it reads: LLVM then vectorises the loop
+                    coefficient = steps[0, p * n + r, k]
+                    for b in range(count):
+                        sums[b] += coefficient * work[k, b]
+                for b in range(count):
+                    work[result + r, b] = sums[b] if p == powers - 1 else sums[b] + work[eps, b] * work[result + r, b]
+    else:
+        for b in range(count):
+            model = block[0, b] if steps.shape[0] > 1 else 0
+            for r in range(n):
+                for p in range(powers - 1, -1, -1):
+                    total = 0.0
+                    for k in range(cols):
+                        total += steps[model, p * n + r, k] * work[k, b]
+                    work[result + r, b] = total if p == powers - 1 else total + work[eps, b] * work[result + r, b]
+    for b in range(count):
+        i, column = block[0, b], block[1, b]
+        x0 = _fl(layout, _X, i)
+        for r in range(n):
+            floats[x0 + r] = work[result + r, b]
+        if impacts:
+            count_root = math.sqrt(floats[_fl(layout, _ICNT, i) + column])
+            normals = _fl(layout, _NORM, i) + layout[_OIN] + column * impacts
+            for j in range(impacts):
+                kick = count_root * floats[_fl(layout, _ISTD, i) + j]
+                floats[x0 + layout[_TABLES + jittered + j]] += kick * floats[normals + j]
 
 
 @compiled
@@ -124,36 +160,81 @@ def _diverged(i: int, floats: np.ndarray, layout: np.ndarray, limits: np.ndarray
 
 
 @compiled
-def peak_speed(z: np.ndarray, envelope: np.ndarray, model: int, speed_rows: int, speeds: np.ndarray,
-               total: np.ndarray) -> float:
+def _peak_speed(work: np.ndarray, b: int, cols: int, envelope: np.ndarray, model: int, speed_rows: int,
+                sums: np.ndarray) -> float:
     """Largest lateral speed [m/s] over look-ahead table ``model`` of ``envelope`` (the norm of its
-    velocity rows) from ``z`` (c,): the state and the input held
+    velocity rows) from rows 0 … c - 1 of column ``b`` of ``work``: the state and the input held
     (:func:`sail_env.physics.pointing.peak_speed`). The tables (K, R·c, S) are transposed, so that
-    the sums run over all samples at once (each sample's own sum, in the same order); ``speeds`` and
-    ``total`` are scratch (at least S)."""
-    cols, samples = z.shape[0], envelope.shape[2]
+    the sums run over all samples at once (each sample's own sum, in the same order); ``sums`` is
+    scratch (2 S: the speeds, then their norms)."""
+    samples = envelope.shape[2]
     for r in range(speed_rows):
         for s in range(samples):
-            speeds[s] = 0.0
+            sums[s] = 0.0
         for k in range(cols):
-            value = z[k]
+            value = work[k, b]
             row = r * cols + k
             for s in range(samples):
-                speeds[s] += envelope[model, row, s] * value
+                sums[s] += envelope[model, row, s] * value
         if speed_rows == 1:
             for s in range(samples):
-                total[s] = abs(speeds[s])
+                sums[samples + s] = abs(sums[s])
         elif r == 0:
             for s in range(samples):
-                total[s] = speeds[s] * speeds[s]
+                sums[samples + s] = sums[s] * sums[s]
         else:
             for s in range(samples):
-                total[s] += speeds[s] * speeds[s]
-    best = total[0]
+                sums[samples + s] += sums[s] * sums[s]
+    best = sums[samples]
     for s in range(1, samples):
-        if total[s] > best:
-            best = total[s]
+        if sums[samples + s] > best:
+            best = sums[samples + s]
     return math.sqrt(best) if speed_rows > 1 else best
+
+
+@compiled
+def _peak_speeds(block: np.ndarray, count: int, work: np.ndarray, cols: int, target: int, envelope: np.ndarray,
+                 speed_rows: int, sums: np.ndarray) -> None:
+    """:func:`_peak_speed` of environments ``block[0, :count]`` into row ``target`` of ``work``, their
+    states and held inputs in its rows 0 … c - 1; ``sums`` is scratch (2 S B). With one table for
+    all and at least :data:`_FEW` environments every sum runs across the block instead (the same
+    sums in the same order)."""
+    samples, width = envelope.shape[2], work.shape[1]
+    if envelope.shape[0] > 1 or count < _FEW:
+        for b in range(count):
+            model = block[0, b] if envelope.shape[0] > 1 else 0
+            work[target, b] = _peak_speed(work, b, cols, envelope, model, speed_rows, sums)
+        return
+    # The speeds (S, B), then their norms (S, B): indexed by two subscripts, never by s·B + b, whose
+    # negative-index check LLVM cannot drop (the accesses would then not be consecutive).
+    grid = sums[:2 * samples * width].reshape((2 * samples, width))
+    for r in range(speed_rows):
+        for s in range(samples):
+            for b in range(count):
+                grid[s, b] = 0.0
+        for k in range(cols):
+            row = r * cols + k
+            for s in range(samples):
+                coefficient = envelope[0, row, s]
+                for b in range(count):
+                    grid[s, b] += coefficient * work[k, b]
+        for s in range(samples):
+            for b in range(count):
+                if speed_rows == 1:
+                    grid[samples + s, b] = abs(grid[s, b])
+                elif r == 0:
+                    grid[samples + s, b] = grid[s, b] * grid[s, b]
+                else:
+                    grid[samples + s, b] += grid[s, b] * grid[s, b]
+    for b in range(count):
+        work[target, b] = grid[samples, b]
+    for s in range(1, samples):
+        for b in range(count):
+            norm, best = grid[samples + s, b], work[target, b]
+            work[target, b] = norm if norm > best else best  # a select, not a branch: it vectorises
+    if speed_rows > 1:
+        for b in range(count):
+            work[target, b] = math.sqrt(work[target, b])
 
 
 @compiled
@@ -195,12 +276,22 @@ def observe(index: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.nda
 
 
 @compiled
+def scratch(layout: np.ndarray, samples: int, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch for a block of ``width`` environments: ``block`` (2, B) their indices and noise steps;
+    ``work`` (c + n + 2, B) the physics' inputs and states, its results, ε, and the peak speed;
+    ``sums`` (max(2 S, 1) B) the envelope's sums and the physics'."""
+    n, cols = layout[_NS], layout[_NC]
+    return (np.empty((2, width), np.int64), np.empty((cols + n + 2, width)), np.empty(max(2 * samples, 1) * width))
+
+
+@compiled
 def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarray, layout: np.ndarray,
          consts: np.ndarray, steps: np.ndarray, envelope: np.ndarray, limits: np.ndarray) -> int:
     """Advance every environment one control step with ``action`` (N, m) in [-1, 1] (clipped): the
     state's fields and ``out`` (N, D) the observations. Returns how many episodes terminated (their
     scoring is the caller's); nothing changes and it returns -1 if an action is not finite, -2 if an
-    episode has finished (it needs a reset)."""
+    episode has finished (it needs a reset). Environments go in blocks of :data:`BLOCK`, each stage
+    over the whole block (:func:`_physics`, :func:`_peak_speeds`)."""
     envs, n, m, cols = layout[_N], layout[_NS], layout[_NI], layout[_NC]
     for i in range(envs):
         if ints[_it(layout, _FIN, i)]:
@@ -208,52 +299,62 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
         for c in range(m):
             if not math.isfinite(action[i, c]):
                 return -1
-    u = np.empty(cols)
-    z = np.empty(n + cols)
-    speeds, total = np.empty(envelope.shape[2]), np.empty(envelope.shape[2])
+    width = min(envs, BLOCK)
+    block, work, sums = scratch(layout, envelope.shape[2], width)
+    speed = cols + n + 1  # the row of work that receives the peak speeds
     delayed = layout[_T] > 0
     ring, window = layout[_CR], layout[_WIN]
     ended = 0
-    for i in range(envs):
-        now = ints[_it(layout, _STEP, i)]
-        for c in range(m):
-            command = min(max(action[i, c], -1.0), 1.0) * consts[c]
-            floats[_fl(layout, _LAST, i) + c] = command
+    for first in range(0, envs, width):
+        count = min(width, envs - first)
+        for b in range(count):
+            i = first + b
+            now = ints[_it(layout, _STEP, i)]
+            block[0, b], block[1, b] = i, now + ints[_it(layout, _LAG, i)]
+            for c in range(m):
+                command = min(max(action[i, c], -1.0), 1.0) * consts[c]
+                floats[_fl(layout, _LAST, i) + c] = command
+                if delayed:
+                    floats[_fl(layout, _CMDS, i) + (now % ring) * m + c] = command
+                work[n + c, b] = command
             if delayed:
-                floats[_fl(layout, _CMDS, i) + (now % ring) * m + c] = command
-            u[c] = command
-        lag = ints[_it(layout, _LAG, i)]
-        if delayed:
-            _applied(i, now, now, u, floats, ints, layout)
-        for c in range(m):
-            floats[_fl(layout, _APPLIED, i) + c] = u[c]
-        if cols > n + m:
-            u[m] = 1.0  # the constant term's input
-        _physics(i, now + lag, u, z, floats, layout, consts, steps)
-        now += 1
-        ints[_it(layout, _STEP, i)] = now
-        x0 = _fl(layout, _X, i)
-        if delayed:
-            target = _fl(layout, _HIST, i) + ((now + lag) % layout[_SR]) * n
+                _applied(i, now, now, work, b, floats, ints, layout)
+            for c in range(m):
+                floats[_fl(layout, _APPLIED, i) + c] = work[n + c, b]
+            if cols > n + m:
+                work[n + m, b] = 1.0  # the constant term's input
+        _physics(block, count, work, sums, floats, layout, consts, steps)
+        for b in range(count):  # the state and the applied input without the jitter: what the envelope holds
+            i = first + b
+            x0 = _fl(layout, _X, i)
             for k in range(n):
-                floats[target + k] = floats[x0 + k]
-        diverged = _diverged(i, floats, layout, limits)
-        for k in range(n):  # the state and the applied input without the jitter: what the envelope holds
-            z[k] = floats[x0 + k]
-        for c in range(m):
-            z[n + c] = floats[_fl(layout, _APPLIED, i) + c]
-        speed = peak_speed(z[:cols], envelope, i if envelope.shape[0] > 1 else 0, layout[_NR], speeds, total)
-        envelope_rad = speed / floats[_fl(layout, _SPEED, i)]
-        floats[_fl(layout, _ENV, i)] = envelope_rad
-        reward = -log_ratio_of(envelope_rad) / window
-        terminated = diverged or now >= window
-        floats[_fl(layout, _REWARD, i)] = DIVERGENCE_PENALTY if diverged else reward
-        ints[_it(layout, _TERM, i)] = terminated
-        ints[_it(layout, _DIV, i)] = diverged
-        if terminated:
-            ints[_it(layout, _FIN, i)] = 1
-            ended += 1
-        _observe(i, now, out, i, floats, ints, layout, consts)
+                work[k, b] = floats[x0 + k]
+            for c in range(m):
+                work[n + c, b] = floats[_fl(layout, _APPLIED, i) + c]
+            if cols > n + m:
+                work[n + m, b] = 1.0
+        _peak_speeds(block, count, work, cols, speed, envelope, layout[_NR], sums)
+        for b in range(count):
+            i = first + b
+            now = ints[_it(layout, _STEP, i)] + 1
+            ints[_it(layout, _STEP, i)] = now
+            x0 = _fl(layout, _X, i)
+            if delayed:
+                target = _fl(layout, _HIST, i) + ((now + ints[_it(layout, _LAG, i)]) % layout[_SR]) * n
+                for k in range(n):
+                    floats[target + k] = floats[x0 + k]
+            diverged = _diverged(i, floats, layout, limits)
+            envelope_rad = work[speed, b] / floats[_fl(layout, _SPEED, i)]
+            floats[_fl(layout, _ENV, i)] = envelope_rad
+            reward = -log_ratio_of(envelope_rad) / window
+            terminated = diverged or now >= window
+            floats[_fl(layout, _REWARD, i)] = DIVERGENCE_PENALTY if diverged else reward
+            ints[_it(layout, _TERM, i)] = terminated
+            ints[_it(layout, _DIV, i)] = diverged
+            if terminated:
+                ints[_it(layout, _FIN, i)] = 1
+                ended += 1
+            _observe(i, now, out, i, floats, ints, layout, consts)
     return ended
 
 
@@ -262,16 +363,16 @@ def pre_control(index: np.ndarray, floats: np.ndarray, ints: np.ndarray, layout:
                 steps: np.ndarray) -> None:
     """The ``lag0`` steps before control of environments ``index`` (light delay), beam off, each
     state kept in the state ring (the first delayed observations show them)."""
-    n, cols = layout[_NS], layout[_NC]
-    u, z = np.empty(cols), np.empty(n + cols)
+    n, m, cols = layout[_NS], layout[_NI], layout[_NC]
+    block, work, sums = scratch(layout, 0, 1)
     for row in range(index.shape[0]):
         i = index[row]
         x0 = _fl(layout, _X, i)
         for s in range(ints[_it(layout, _LAG, i)]):
-            u[:] = 0.0
-            if cols > n + layout[_NI]:
-                u[layout[_NI]] = 1.0
-            _physics(i, s, u, z, floats, layout, consts, steps)
+            block[0, 0], block[1, 0] = i, s
+            for c in range(cols - n):
+                work[n + c, 0] = 1.0 if c == m else 0.0  # the beam off (and the constant term's 1)
+            _physics(block, 1, work, sums, floats, layout, consts, steps)
             target = _fl(layout, _HIST, i) + ((s + 1) % layout[_SR]) * n
             for k in range(n):
                 floats[target + k] = floats[x0 + k]
@@ -284,7 +385,7 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
     (light delay). ``x`` (k, n) receives the states and ``reached`` (k,) the steps; the state buffer
     is left as the window ended."""
     n, m, cols, window = layout[_NS], layout[_NI], layout[_NC], layout[_WIN]
-    u, z = np.empty(cols), np.empty(n + cols)
+    block, work, sums = scratch(layout, 0, 1)
     last = window - 1
     for row in range(index.shape[0]):
         i = index[row]
@@ -292,10 +393,11 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
         saved = floats[x0:x0 + n].copy()
         now = ints[_it(layout, _STEP, i)]
         while now - ints[_it(layout, _DELAY, i) + now] < last:
-            _applied(i, now, last, u, floats, ints, layout)
+            _applied(i, now, last, work, 0, floats, ints, layout)
             if cols > n + m:
-                u[m] = 1.0
-            _physics(i, now + ints[_it(layout, _LAG, i)], u, z, floats, layout, consts, steps)
+                work[n + m, 0] = 1.0
+            block[0, 0], block[1, 0] = i, now + ints[_it(layout, _LAG, i)]
+            _physics(block, 1, work, sums, floats, layout, consts, steps)
             now += 1
         x[row] = floats[x0:x0 + n]
         reached[row] = now
@@ -303,12 +405,13 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
 
 
 @compiled
-def peak_speeds(index: np.ndarray, x: np.ndarray, u: np.ndarray, cols: int, speed_rows: int,
-                envelope: np.ndarray, out: np.ndarray) -> None:
-    """:func:`peak_speed` of environments ``index`` at states ``x`` (k, n) with inputs ``u`` (k, c - n)."""
-    n = x.shape[1]
-    speeds, total, z = np.empty(envelope.shape[2]), np.empty(envelope.shape[2]), np.empty(cols)
-    for row in range(index.shape[0]):
-        z[:n] = x[row]
-        z[n:] = u[row]
-        out[row] = peak_speed(z, envelope, index[row] if envelope.shape[0] > 1 else 0, speed_rows, speeds, total)
+def peak_speeds(index: np.ndarray, x: np.ndarray, u: np.ndarray, speed_rows: int, envelope: np.ndarray,
+                out: np.ndarray) -> None:
+    """:func:`_peak_speed` of environments ``index`` at states ``x`` (k, n) with inputs ``u`` (k, c - n)."""
+    n, cols, k = x.shape[1], x.shape[1] + u.shape[1], index.shape[0]
+    block, work = np.empty((1, k), np.int64), np.empty((cols + 1, k))
+    block[0] = index
+    work[:n] = x.T
+    work[n:cols] = u.T
+    _peak_speeds(block, k, work, cols, cols, envelope, speed_rows, np.empty(2 * envelope.shape[2] * k))
+    out[:] = work[cols]

@@ -104,7 +104,8 @@ SUBSET = ["tests/core/test_same_numbers.py::test_noise_free_episodes_are_those_o
           "tests/core/test_recorded_noisy_episodes.py::test_noisy_episodes_are_those_recorded[LightSail3DRealistic-v1-3]",
           "tests/core/test_compiled_core.py::test_the_compiled_step_applies_the_divergence_rule_the_plant_declares"
           "[LightSail3D-v0]",
-          "tests/core/test_limits.py::test_vector_env_refuses_non_finite_actions_and_a_step_before_reset"]
+          "tests/core/test_limits.py::test_vector_env_refuses_non_finite_actions_and_a_step_before_reset",
+          "tests/core/test_compiled_core.py::test_a_block_of_environments_steps_each_as_alone_to_the_bit[LightSail-v0]"]
 
 
 @pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT") == "1", reason="already running without the compiler")
@@ -116,3 +117,31 @@ def test_the_kernels_logic_runs_as_python_with_the_same_results():
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert " passed" in done.stdout and "failed" not in done.stdout
+
+
+@pytest.mark.parametrize("env_id", ["LightSail-v0", "LightSail3D-v0", "LightSailRealistic-v0"])
+def test_a_block_of_environments_steps_each_as_alone_to_the_bit(env_id):
+    """The step runs its stages across a block of environments (one shared model) or one
+    environment at a time (a model per environment, or a few environments): the same sums in the
+    same order, so every environment of a batch spanning two blocks and a short one gives the single
+    env's observations and rewards to the last bit."""
+    from sail_env.core.kernels import BLOCK
+    n, steps, seed = 2 * BLOCK + 3, 30, 4
+    actions = np.random.default_rng(1).uniform(-1.2, 1.2, (steps, n, 2)).astype(np.float32)
+    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    m = envs.single_action_space.shape[0]
+    batch = [envs.reset(seed=seed)[0]]
+    rewards = []
+    for k in range(steps):
+        obs, reward, *_ = envs.step(np.resize(actions[k], (n, m)))
+        batch.append(obs)
+        rewards.append(reward)
+    batch, rewards = np.array(batch), np.array(rewards)
+    for i in (0, 1, BLOCK - 1, BLOCK, 2 * BLOCK + 1, n - 1):
+        env = gym.make(env_id)
+        alone = [env.reset(seed=seed + i)[0]]
+        for k in range(steps):
+            obs, reward, *_ = env.step(np.resize(actions[k], (n, m))[i])
+            alone.append(obs)
+            assert reward == rewards[k, i], (i, k)
+        np.testing.assert_array_equal(np.array(alone), batch[:, i])
