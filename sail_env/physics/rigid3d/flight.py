@@ -148,6 +148,21 @@ def _crossing_time(k: float, length: float, relativistic: bool) -> float:
     return (eps + eps**2 / 2 + eps**3 / 6) / k
 
 
+class _Rates:
+    """``(d(γβ)/dt, dD/dt)`` beyond ``L0`` and the Runge–Kutta step (compiled: a table takes ~15,000
+    steps; plain floats in a fixed order either way)."""
+
+    def __init__(self, k: float, length: float, law: PushLaw, relativistic: bool) -> None:
+        self.args = (k, length, relativistic, *law.tables)
+
+    def __call__(self, momentum: float, distance: float) -> tuple[float, float]:
+        return _rates(momentum, distance, *self.args)
+
+    def rk4(self, momentum: float, distance: float, h: float) -> tuple[float, float]:
+        """One classical Runge–Kutta step of ``h`` seconds."""
+        return _rk4(momentum, distance, h, *self.args)
+
+
 @compiled
 def _rates(momentum: float, distance: float, k: float, length: float, relativistic: bool, his: np.ndarray,
            nodes: np.ndarray, values: np.ndarray, weights: np.ndarray) -> tuple[float, float]:
@@ -168,46 +183,6 @@ def _rk4(momentum: float, distance: float, h: float, k: float, length: float, re
     p4, d4 = _rates(momentum + h * p3, distance + h * d3, *law)
     return (momentum + h / 6.0 * (p1 + 2.0 * p2 + 2.0 * p3 + p4),
             distance + h / 6.0 * (d1 + 2.0 * d2 + 2.0 * d3 + d4))
-
-
-@compiled
-def _beyond(momentum: float, distance: float, nodes: np.ndarray, targets: np.ndarray, k: float, length: float,
-            relativistic: bool, his: np.ndarray, law_nodes: np.ndarray, values: np.ndarray, weights: np.ndarray,
-            out: np.ndarray, kink_times: np.ndarray) -> int:
-    """The flight beyond ``L0`` from ``(momentum, distance)`` at ``nodes[0]`` (the crossing), a
-    Runge–Kutta step to each node and a node where the spot's rim meets each of ``targets[1:]`` (a
-    hard edge: bisected within its step). Writes the rows (t, γβ, d(γβ)/dt, D, dD/dt) into ``out``
-    (5, ·) and the edges' times into ``kink_times``; returns how many rows it wrote. (Compiled: a
-    table takes ~15,000 steps; plain floats in a fixed order either way.)"""
-    law = (k, length, relativistic, his, law_nodes, values, weights)
-    t, pending, rows = nodes[0], 1, 0
-    for i in range(nodes.shape[0]):
-        node = nodes[i]
-        if i:
-            new = _rk4(momentum, distance, node - t, *law)
-            if pending < targets.shape[0] and new[1] >= targets[pending]:
-                lo, hi = 0.0, node - t
-                for _ in range(EDGE_ITERATIONS):
-                    mid = 0.5 * (lo + hi)
-                    if _rk4(momentum, distance, mid, *law)[1] < targets[pending]:
-                        lo = mid
-                    else:
-                        hi = mid
-                edge = t + hi
-                momentum, distance = _rk4(momentum, distance, hi, *law)
-                rate = _rates(momentum, distance, *law)
-                out[0, rows], out[1, rows], out[2, rows], out[3, rows], out[4, rows] = (
-                    edge, momentum, rate[0], distance, rate[1])
-                rows += 1
-                kink_times[pending] = edge
-                pending += 1
-                t = edge
-                new = _rk4(momentum, distance, node - t, *law)
-            momentum, distance, t = new[0], new[1], node
-        rate = _rates(momentum, distance, *law)
-        out[0, rows], out[1, rows], out[2, rows], out[3, rows], out[4, rows] = node, momentum, rate[0], distance, rate[1]
-        rows += 1
-    return rows
 
 
 class FlightTable:
@@ -247,15 +222,34 @@ class FlightTable:
         kink_times = [end + 1.0 + i for i in range(len(kinks))]  # beyond the table: never reached
         if crossing < end:
             momentum, distance = (float(a[0]) for a in _closed_form(k, np.array([crossing]), relativistic)[::2])
+            rates = _Rates(k, length, law, relativistic)
+            t, targets = crossing, [length * math.exp(x) for x in kinks]
             kink_times[0] = crossing
-            nodes = np.array([crossing, *uniform[uniform > crossing]])
-            beyond = np.empty((5, len(nodes) + len(kinks)))
-            edges = np.array(kink_times)
-            rows = _beyond(momentum, distance, nodes, np.array([length * math.exp(x) for x in kinks]), k, length,
-                           relativistic, *law.tables, beyond, edges)
-            kink_times = edges.tolist()
-            for column, values in zip((times, p, dp, d, dd), beyond[:, :rows].tolist()):
-                column += values
+            pending = 1
+            nodes = [crossing, *uniform[uniform > crossing]]
+            for i, node in enumerate(nodes):
+                if i:
+                    new = rates.rk4(momentum, distance, node - t)
+                    if pending < len(targets) and new[1] >= targets[pending]:
+                        # A hard edge meets the rim within the step: a node where it does.
+                        lo, hi = 0.0, node - t
+                        for _ in range(EDGE_ITERATIONS):
+                            mid = 0.5 * (lo + hi)
+                            short = rates.rk4(momentum, distance, mid)[1] < targets[pending]
+                            lo, hi = (mid, hi) if short else (lo, mid)
+                        edge = t + hi
+                        momentum, distance = rates.rk4(momentum, distance, hi)
+                        times.append(edge)
+                        rate = rates(momentum, distance)
+                        p.append(momentum), d.append(distance), dp.append(rate[0]), dd.append(rate[1])
+                        kink_times[pending] = edge
+                        pending += 1
+                        t = edge
+                        new = rates.rk4(momentum, distance, node - t)
+                    momentum, distance, t = new[0], new[1], node
+                rate = rates(momentum, distance)
+                times.append(node)
+                p.append(momentum), d.append(distance), dp.append(rate[0]), dd.append(rate[1])
         # Kinks never reached: extra nodes beyond the end keep every flight's row the same length.
         while len(times) < len(uniform) + len(kinks):
             times.append(times[-1] + 1.0)
