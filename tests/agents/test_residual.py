@@ -125,3 +125,13 @@ def test_a_residual_model_is_evaluated_beside_its_base(residual_model: Path):
     np.testing.assert_allclose(action, combined(base_action, correction, 0.2), atol=1e-7)
     with pytest.raises(Exception, match="shape"):  # the learner alone does not take the env's observation
         SB3Agent.load(residual_model, (env.observation_space.shape[0] - 1,))
+
+
+def test_the_shipped_residual_settings_train(tmp_path: Path):
+    """agents/hyperparams/ppo_residual.yml (README: PPO correcting LQG on the planar realistic task)
+    runs as documented, and its run records the base and the scale."""
+    shipped = Path(__file__).parents[2] / "agents/hyperparams/ppo_residual.yml"
+    assert train.main(["--algo", "ppo", "--env", PLANAR_DELAYED, "--config", str(shipped), "--timesteps", "64",
+                       "--n-envs", "1", "--out", str(tmp_path / "run"), "--eval-freq", "0", "--no-progress-bar"]) == 0
+    hyperparams = train.read_run(tmp_path / "run")["config"]["hyperparams"]
+    assert hyperparams["residual"] == "lqg" and hyperparams["residual_scale"] == 0.3
