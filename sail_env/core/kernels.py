@@ -17,9 +17,11 @@ costliest stage, the envelope (:func:`_peak_speeds`), runs across the block's en
 inner loop when all share one table: LLVM vectorises that loop (with a table per environment the
 tables do not fit the cache across a block, and a lone environment has no block, so those run one
 environment at a time, over the samples). Either way every environment's arithmetic is a scalar
-step's, in the same order: a batch gives each environment's numbers to the last bit, whatever N is. Scratch is indexed by two subscripts, never sliced per environment (a view
-costs two atomic reference counts) and never by ``s·B + b`` (LLVM cannot drop that index's
-negative-index check, so the accesses would not look consecutive).
+step's, in the same order: a batch gives each environment's numbers to the last bit, whatever N is.
+Scratch is indexed by two subscripts, never sliced per environment (a view costs two atomic
+reference counts) and never by ``s·B + b`` (LLVM cannot drop that index's negative-index check, so
+the accesses would not look consecutive); copies are loops, not slices (a slice's copy machinery
+costs seconds of compile).
 """
 
 from __future__ import annotations
@@ -383,7 +385,7 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
             block[0, 0], block[1, 0] = i, now + ints[_it(layout, _LAG, i)]
             _physics(block, 1, work, floats, layout, consts, steps)
             now += 1
-        for k in range(n):  # plain loops, not slices: a slice's copy machinery costs seconds of compile
+        for k in range(n):
             x[row, k], floats[x0 + k] = floats[x0 + k], x[row, k]
         reached[row] = now
 
@@ -394,7 +396,7 @@ def peak_speeds(index: np.ndarray, x: np.ndarray, u: np.ndarray, speed_rows: int
     """:func:`_peak_speed` of environments ``index`` at states ``x`` (k, n) with inputs ``u`` (k, c - n)."""
     n, cols, k = x.shape[1], x.shape[1] + u.shape[1], index.shape[0]
     block, work = np.empty((1, k), np.int64), np.empty((cols + 1, k))
-    for b in range(k):  # plain loops, not slices: a slice's copy machinery costs seconds of compile
+    for b in range(k):
         block[0, b] = index[b]
         for j in range(cols):
             work[j, b] = x[b, j] if j < n else u[b, j - n]
