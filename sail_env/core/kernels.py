@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from sail_env.core.delay import arrived_command
-from sail_env.jit import compiled
+from sail_env.jit import compiled, inlined
 from sail_env.core.reward import DIVERGENCE_PENALTY, log_ratio_of
 from sail_env.core.state import Slot
 
@@ -60,14 +60,14 @@ _STEP, _FIN, _TERM, _DIV, _LAG, _DELAY, _TABLES = (
 _FREC, _IREC = int(Slot.FLOAT_RECORD), int(Slot.INT_RECORD)
 
 
-@compiled
+@inlined
 def _fl(layout: np.ndarray, slot: int, i: int) -> int:
     """Where environment ``i``'s field ``slot`` starts in the float buffer (one record per environment:
     its fields side by side, so a step reads a few neighbouring cache lines, not one per field)."""
     return i * layout[_FREC] + layout[slot]
 
 
-@compiled
+@inlined
 def _it(layout: np.ndarray, slot: int, i: int) -> int:
     """Where environment ``i``'s field ``slot`` starts in the integer buffer."""
     return i * layout[_IREC] + layout[slot]
