@@ -178,12 +178,14 @@ class LinearPlant:
         low, high = 1 - self.parameter_spread, 1 + self.parameter_spread
         return low + (high - low) * uniforms
 
-    @single_threaded
     def params(self, factors: np.ndarray) -> PlantParams:
         """Parameters for environments with the given factors (k, n_factors); shared without spread.
         Built with one BLAS thread (:mod:`sail_env.physics.blas`), as are :meth:`coast` and the batched
-        :meth:`step` and :meth:`peak_speed`."""
-        return self._shared if self._shared is not None else self._build(factors, shared=False)
+        :meth:`step` and :meth:`peak_speed` (shared parameters are built once: no threads to limit)."""
+        if self._shared is not None:
+            return self._shared
+        with one_blas_thread():
+            return self._build(factors, shared=False)
 
     def _build(self, factors: np.ndarray, shared: bool) -> PlantParams:
         raise NotImplementedError
