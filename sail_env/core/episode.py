@@ -112,9 +112,14 @@ class EpisodeCore:
         self.state.cutoff_s[:] = spec.config.beam_cutoff_s
         self.state.speed_at_cutoff[:] = plant.speed(params, self.state.cutoff_s)
         self.consts = np.concatenate([spec.action_scale, spec.state_scale, spec.sensor_noise_std, [dist.push_noise]])
-        self.envelope_tables = self._transposed(params.envelope)
+        self._set_tables(self._transposed(params.envelope))
         self._rows = np.arange(n)
         self._jittered, self._impacts, self._pushed, self._sensed = jittered, impacts, pushed, sensed
+
+    def _set_tables(self, tables: np.ndarray) -> None:
+        """Keep the look-ahead tables (K, R·c, S) and the step's view of them (:func:`kernels.step_tables`)."""
+        self.envelope_tables = tables
+        self._step_tables = kernels.step_tables(tables, self.num_envs)
 
     @staticmethod
     def _transposed(envelope: np.ndarray) -> np.ndarray:
@@ -154,7 +159,7 @@ class EpisodeCore:
             if self.envelope_tables.shape[2] == state.params.envelope.shape[1]:
                 self.envelope_tables[index] = self._transposed(state.params.envelope[index])
             else:  # the tables were padded to a longer draw's
-                self.envelope_tables = self._transposed(state.params.envelope)
+                self._set_tables(self._transposed(state.params.envelope))
         for i, rng in zip(index, rngs):
             state.rngs[i] = rng
         state.cutoff_s[index] = cutoff
@@ -213,7 +218,7 @@ class EpisodeCore:
         then scores them (:meth:`score`). What the single env's hot path calls."""
         state = self.state
         ended = kernels.step(action, out, state.floats, state.ints, state.layout, self.consts, state.params.step,
-                             self.envelope_tables, state.params.limits)
+                             self._step_tables, state.params.limits)
         if ended < 0:
             if ended == -2:
                 raise RuntimeError("step() called on a finished episode; call reset() first")

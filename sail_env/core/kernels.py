@@ -14,9 +14,12 @@ shares the model). The caller allocates the outputs.
 
 The step takes the environments in blocks of :data:`BLOCK`, each stage over the whole block. The
 costliest stage, the envelope (:func:`_peak_speeds`), runs across the block's environments in its
-inner loop when all share one table: LLVM vectorises that loop (with a table per environment the
-tables do not fit the cache across a block, and a lone environment has no block, so those run one
-environment at a time, over the samples). Either way every environment's arithmetic is a scalar
+inner loop when at least :data:`_FEW` share one table, passed as one (R·c, S) table
+(:func:`step_tables`): LLVM vectorises that loop. With a table per environment (the tables do not fit
+the cache across a block) or a few environments, the tables come as (K, R·c, S) and the envelope runs
+one environment at a time, over the samples. The choice is the table's number of dimensions, a
+type: each compiled step holds only its own path (~1.5 s less compile for a task that never runs
+the other). Either way every environment's arithmetic is a scalar
 step's, in the same order: a batch gives each environment's numbers to the last bit, whatever N is.
 Scratch is indexed by two subscripts, never sliced per environment (a view costs two atomic
 reference counts) and never by ``s·B + b`` (LLVM cannot drop that index's negative-index check, so
@@ -38,8 +41,8 @@ from sail_env.core.state import Slot
 OBSERVATION_LIMIT = 1e3
 #: Environments a step takes together through each stage (their scratch stays in the L1 cache).
 BLOCK = 32
-#: Below this many environments in a block (or with a table per environment) the envelope runs one
-#: environment at a time; from it on, with one shared table, across the block.
+#: Below this many environments (or with a table per environment) the envelope runs one environment
+#: at a time; from it on, with one shared table, across the block (:func:`step_tables`).
 _FEW = 4
 
 # The layout's entries as plain integers (compile-time constants in the kernels).
@@ -181,11 +184,12 @@ def _peak_speed(work: np.ndarray, b: int, cols: int, envelope: np.ndarray, model
 def _peak_speeds(block: np.ndarray, count: int, work: np.ndarray, cols: int, target: int, envelope: np.ndarray,
                  speed_rows: int, sums: np.ndarray) -> None:
     """:func:`_peak_speed` of environments ``block[0, :count]`` into row ``target`` of ``work``, their
-    states and held inputs in its rows 0 … c - 1; ``sums`` is scratch (2 S B). With one table for
-    all and at least :data:`_FEW` environments every sum runs across the block instead (the same
-    sums in the same order)."""
-    samples, width = envelope.shape[2], work.shape[1]
-    if envelope.shape[0] > 1 or count < _FEW:
+    states and held inputs in its rows 0 … c - 1; ``sums`` is scratch (2 S B). ``envelope`` is
+    (K, R·c, S), one environment at a time, or one shared (R·c, S) table: then every sum runs across
+    the block instead (the same sums in the same order). The branch is on the type, so it is
+    compiled away."""
+    samples, width = envelope.shape[-1], work.shape[1]
+    if envelope.ndim == 3:
         for b in range(count):
             model = block[0, b] if envelope.shape[0] > 1 else 0
             work[target, b] = _peak_speed(work, b, cols, envelope, model, speed_rows, sums)
@@ -200,7 +204,7 @@ def _peak_speeds(block: np.ndarray, count: int, work: np.ndarray, cols: int, tar
         for k in range(cols):
             row = r * cols + k
             for s in range(samples):
-                coefficient = envelope[0, row, s]
+                coefficient = envelope[row, s]
                 for b in range(count):
                     grid[s, b] += coefficient * work[k, b]
         for s in range(samples):
@@ -269,6 +273,13 @@ def scratch(layout: np.ndarray, samples: int, width: int) -> tuple[np.ndarray, n
     return (np.empty((2, width), np.int64), np.empty((cols + n + 2, width)), np.empty(max(2 * samples, 1) * width))
 
 
+def step_tables(tables: np.ndarray, envs: int) -> np.ndarray:
+    """The envelope's tables (K, R·c, S) as :func:`step` takes them for ``envs`` environments: the
+    shared table alone (R·c, S) when at least :data:`_FEW` environments share it, so that its sums
+    run across each block; else unchanged."""
+    return tables[0] if tables.shape[0] == 1 and envs >= _FEW else tables
+
+
 @compiled
 def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarray, layout: np.ndarray,
          consts: np.ndarray, steps: np.ndarray, envelope: np.ndarray, limits: np.ndarray) -> int:
@@ -276,7 +287,8 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
     state's fields and ``out`` (N, D) the observations. Returns how many episodes terminated (their
     scoring is the caller's); nothing changes and it returns -1 if an action is not finite, -2 if an
     episode has finished (it needs a reset). Environments go in blocks of :data:`BLOCK`, each stage
-    over the whole block (:func:`_physics`, :func:`_peak_speeds`)."""
+    over the whole block (:func:`_physics`, :func:`_peak_speeds`); ``envelope`` is the tables as
+    :func:`step_tables` gives them."""
     envs, n, m, cols = layout[_N], layout[_NS], layout[_NI], layout[_NC]
     for i in range(envs):
         if ints[_it(layout, _FIN, i)]:
@@ -285,7 +297,7 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
             if not math.isfinite(action[i, c]):
                 return -1
     width = min(envs, BLOCK)
-    block, work, sums = scratch(layout, envelope.shape[2], width)
+    block, work, sums = scratch(layout, envelope.shape[-1], width)
     speed = cols + n + 1  # the row of work that receives the peak speeds
     delayed = layout[_T] > 0
     ring, window = layout[_CR], layout[_WIN]
