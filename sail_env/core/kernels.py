@@ -76,6 +76,13 @@ def _it(layout: np.ndarray, slot: int, i: int) -> int:
     return i * layout[_IREC] + layout[slot]
 
 
+@inlined
+def _typed(value: int) -> int:
+    """``value`` as a plain int64. A constant passed to a compiled function is typed as its literal,
+    and the function is compiled once more for that value (~0.6 s for :func:`_physics`)."""
+    return np.int64(value)
+
+
 @compiled
 def _applied(i: int, step: int, newest: int, work: np.ndarray, b: int, floats: np.ndarray, ints: np.ndarray,
              layout: np.ndarray) -> None:
@@ -361,7 +368,8 @@ def pre_control(index: np.ndarray, floats: np.ndarray, ints: np.ndarray, layout:
     """The ``lag0`` steps before control of environments ``index`` (light delay), beam off, each
     state kept in the state ring (the first delayed observations show them)."""
     n, m, cols = layout[_NS], layout[_NI], layout[_NC]
-    block, work, _ = scratch(layout, 0, 1)
+    zero, one = _typed(0), _typed(1)
+    block, work, _ = scratch(layout, zero, one)
     for row in range(index.shape[0]):
         i = index[row]
         x0 = _fl(layout, _X, i)
@@ -369,7 +377,7 @@ def pre_control(index: np.ndarray, floats: np.ndarray, ints: np.ndarray, layout:
             block[0, 0], block[1, 0] = i, s
             for c in range(cols - n):
                 work[n + c, 0] = 1.0 if c == m else 0.0  # the beam off (and the constant term's 1)
-            _physics(block, 1, work, floats, layout, consts, steps)
+            _physics(block, one, work, floats, layout, consts, steps)
             target = _fl(layout, _HIST, i) + ((s + 1) % layout[_SR]) * n
             for k in range(n):
                 floats[target + k] = floats[x0 + k]
@@ -382,7 +390,8 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
     (light delay). ``x`` (k, n) receives the states and ``reached`` (k,) the steps; the state buffer
     is left as the window ended."""
     n, m, cols, window = layout[_NS], layout[_NI], layout[_NC], layout[_WIN]
-    block, work, _ = scratch(layout, 0, 1)
+    zero, one = _typed(0), _typed(1)
+    block, work, _ = scratch(layout, zero, one)
     last = window - 1
     for row in range(index.shape[0]):
         i = index[row]
@@ -391,11 +400,11 @@ def in_flight(index: np.ndarray, x: np.ndarray, reached: np.ndarray, floats: np.
             x[row, k] = floats[x0 + k]  # the state as the window ended: put back below
         now = ints[_it(layout, _STEP, i)]
         while now - ints[_it(layout, _DELAY, i) + now] < last:
-            _applied(i, now, last, work, 0, floats, ints, layout)
+            _applied(i, now, last, work, zero, floats, ints, layout)
             if cols > n + m:
                 work[n + m, 0] = 1.0
             block[0, 0], block[1, 0] = i, now + ints[_it(layout, _LAG, i)]
-            _physics(block, 1, work, floats, layout, consts, steps)
+            _physics(block, one, work, floats, layout, consts, steps)
             now += 1
         for k in range(n):
             x[row, k], floats[x0 + k] = floats[x0 + k], x[row, k]
