@@ -32,9 +32,11 @@ import math
 import numpy as np
 
 from sail_env.jit import compiled
+from sail_env.physics.memo import built_once
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.relativity import diffraction_scale
 from sail_env.physics.rigid3d.body import RigidSail
+from sail_env.physics.rigid3d.config import RigidSailConfig
 
 #: Flights a :class:`DrawFlights` with diffraction integrates across the draws' range of ``F/m``.
 DRAW_NODES = 9
@@ -457,3 +459,11 @@ class DrawFlights:
 
     def beam_scale(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
         return diffraction_scale(self.distance(ratio, t), self.diffraction_length_m)
+
+
+@built_once
+def draw_flights(sail: RigidSailConfig, duration_s: float, relativistic: bool, diffraction_length_m: float,
+                 largest_ratio: float) -> DrawFlights:
+    """The :class:`DrawFlights` of ``sail``, built once per process and shared read-only
+    (:func:`~sail_env.physics.memo.built_once`)."""
+    return DrawFlights(RigidSail(sail), duration_s, relativistic, diffraction_length_m, largest_ratio)

@@ -41,11 +41,11 @@ from sail_env.physics.linear_plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
-from sail_env.physics.rigid3d.flight import DrawFlights
+from sail_env.physics.rigid3d.flight import DrawFlights, draw_flights
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL, check_flight, check_spin, farthest_distance_m
 from sail_env.physics.rigid3d.damping import damped_linearisation
 from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation
-from sail_env.physics.rigid3d.scales import ScaleTable
+from sail_env.physics.rigid3d.scales import ScaleTable, scale_table
 
 #: The factors a parameter spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("mass", "inertia", "beam_power")
@@ -226,13 +226,13 @@ class RigidPlant(LinearPlant):
         if config.relativistic or self.diffracting or any(d.needs_distance for d in disturbances):
             # The flights of every draw's F/m, to twice the cut-off (the latest a cut-off jitter allows).
             fastest = self.largest_ratio(parameter_spread)
-            self.flights = DrawFlights(self.sail, 2.0 * config.beam_cutoff_s, config.relativistic,
-                                       config.diffraction_length_m, fastest)
+            self.flights = draw_flights(config.sail, 2.0 * config.beam_cutoff_s, config.relativistic,
+                                        config.diffraction_length_m, fastest)
             if self.diffracting:
                 # A draw's spot is D̃(r t)/(r L0) (DrawFlights): bounded by the farthest node over the slowest draw.
                 farthest = max(float(f.distance(f.duration_s)) for f in self.flights.flights)
-                self.scales = ScaleTable(self.sail, farthest * fastest / config.diffraction_length_m,
-                                         config.velocity_terms)
+                self.scales = scale_table(config.sail, farthest * fastest / config.diffraction_length_m,
+                                          config.velocity_terms)
         # Impacts' rate and size grow with the sail's speed: the coast holds them piecewise too.
         self.time_varying = self.flights is not None or any(d.channel == "impulse" for d in disturbances)
         self.flight = None if self.flights is None else self.flights.nominal

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from sail_env.physics.memo import built_once
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation
@@ -119,3 +120,10 @@ class ScaleTable:
         inverse = (1.0 / np.maximum(scale, 1.0) ** 2)[trailing]
         mix = frac[trailing]
         return inverse * ((1 - mix) * table[index] + mix * table[upper])
+
+
+@built_once
+def scale_table(sail: RigidSailConfig, top: float, velocity_terms: bool) -> ScaleTable:
+    """The :class:`ScaleTable` of ``sail``, built once per process and shared read-only
+    (:func:`~sail_env.physics.memo.built_once`)."""
+    return ScaleTable(RigidSail(sail), top, velocity_terms)

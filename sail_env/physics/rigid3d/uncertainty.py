@@ -41,6 +41,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sail_env.physics.disturbance import Disturbance
+from sail_env.physics.memo import built_once
 from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
@@ -171,6 +172,13 @@ class CurvatureTable:
         return tuple(out)
 
 
+@built_once
+def curvature_table(sail: RigidSailConfig, spin: float, curvature: float) -> CurvatureTable:
+    """The :class:`CurvatureTable` of ``sail``, built once per process and shared read-only
+    (:func:`~sail_env.physics.memo.built_once`)."""
+    return CurvatureTable(sail, spin, curvature)
+
+
 class UncertainPlant(RigidPlant):
     """:class:`RigidPlant` with the draws of :class:`ModelUncertainty` on top of the parameter spread.
 
@@ -188,7 +196,7 @@ class UncertainPlant(RigidPlant):
                  disturbances: Sequence[Disturbance] = ()) -> None:
         u = config.uncertainty
         self.uncertainty = u
-        self.table = CurvatureTable(config.sail, config.spin_rad_s, u.curvature)
+        self.table = curvature_table(config.sail, config.spin_rad_s, u.curvature)
         sail = config.sail
         self._nominal_terms = self.table.at(np.array([sail.curvature_radius_m]), np.array([sail.absorptivity]))
         pushes = [self.table.at(np.array([r]), np.array([a]))[2][0] for r in self.table.radii
