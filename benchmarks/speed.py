@@ -17,7 +17,7 @@ Sections (``--sections``):
 | ``vector`` | ``gym.make_vec`` env-steps/s at N = 1, 64, 1024, 16384 (whole episodes) | ``CartPoleVectorEnv`` |
 | ``episode`` | a passive ``LightSail3DRealistic-v1`` episode at N = 1, its slowest step, and both with the machine's BLAS threads ÷ one thread | — |
 | ``ppo`` | SB3 PPO env-steps/s through ``agents.training.make_env`` (the task's shipped settings) | the same PPO on Pendulum-v1 |
-| ``start`` | a new process's import and first step, with an empty and a warm Numba cache [s] | the same for CartPole-v1 |
+| ``start`` | a new process's import and first step, with empty and warm caches (Numba's and the 3D tables') [s] | the same for CartPole-v1 |
 
 Torch and BLAS run on one thread, as ``train.py`` runs them, except in the ``episode`` section's
 comparison. Prints markdown tables, writes JSON (the CPU model, versions, every round) to ``--out``
@@ -46,6 +46,7 @@ import sail_env  # noqa: F401
 from agents import cli
 from agents.sb3 import algo_kwargs, load_hyperparams, one_thread_per_process, versions
 from agents.training import make_env
+from sail_env.physics.memo import CACHE_VARIABLE
 from sail_env.provenance import machine
 from sail_env.tasks import TASKS
 
@@ -229,15 +230,16 @@ def ppo_section(rounds: int, tasks: tuple[str, ...]) -> tuple[dict, str]:
 
 
 def start_seconds(env_id: str, cache_dir: str) -> float:
-    """A new process's import, ``gym.make``, reset and first step [s], with ``cache_dir`` as Numba's cache."""
-    environment = {**os.environ, "NUMBA_CACHE_DIR": cache_dir}
+    """A new process's import, ``gym.make``, reset and first step [s], with ``cache_dir`` as Numba's cache
+    and the 3D tables' (:mod:`sail_env.physics.memo`)."""
+    environment = {**os.environ, "NUMBA_CACHE_DIR": cache_dir, CACHE_VARIABLE: cache_dir}
     script = START_SCRIPT.format(env=env_id)
     done = subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True, check=True)
     return float(done.stdout.strip().splitlines()[-1])
 
 
 def start_section(rounds: int, tasks: tuple[str, ...]) -> tuple[dict, str]:
-    """Cold (empty Numba cache) and warm starts of each task's process, beside CartPole-v1's."""
+    """Cold (empty caches) and warm starts of each task's process, beside CartPole-v1's."""
     lines = ["| a new process: import, make, reset, first step | empty cache | warm cache |", "|---|---:|---:|"]
     result = {}
     for env_id in ("CartPole-v1", *tasks):

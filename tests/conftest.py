@@ -1,11 +1,23 @@
-"""Shared fixtures: the seed paper's equations written out literally, as an independent reference."""
+"""Shared fixtures: the seed paper's equations written out literally, as an independent reference; and the
+3D tables' disk cache kept to this run (below)."""
 
 from __future__ import annotations
+
+import atexit
+import os
+import shutil
+import tempfile
 
 import numpy as np
 import pytest
 
 from sail_env.physics import SEED, SailConfig
+from sail_env.physics.memo import CACHE_VARIABLE
+
+# The 3D tables' disk cache (sail_env/physics/memo.py) in a directory of this run's own, removed at its
+# end: the tests build every table afresh and leave nothing in the user's cache.
+os.environ[CACHE_VARIABLE] = tempfile.mkdtemp(prefix="lightsail-gym-tables-")
+atexit.register(shutil.rmtree, os.environ[CACHE_VARIABLE], ignore_errors=True)
 
 
 def seed_rhs(config: SailConfig, state: np.ndarray, beam: np.ndarray = np.zeros(2)) -> np.ndarray:

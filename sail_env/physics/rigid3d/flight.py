@@ -27,6 +27,7 @@ the nodes; tested against DOP853 at ``rtol`` 1e-13 (``tests/physics/test_flight_
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -353,6 +354,21 @@ def _power_factor(momentum, relativistic: bool):
     return 1.0 / ((1.0 + momentum * momentum) ** 0.5 + momentum) ** 2
 
 
+def _pick_speed(momentum, distance, relativistic: bool):
+    """The speed [m/s] of a table read ``(γβ, D)``."""
+    return _beta(momentum, relativistic) * SPEED_OF_LIGHT
+
+
+def _pick_power_factor(momentum, distance, relativistic: bool):
+    """The Doppler power factor of a table read ``(γβ, D)``."""
+    return _power_factor(momentum, relativistic)
+
+
+def _pick_distance(momentum, distance):
+    """The distance [m] of a table read ``(γβ, D)``."""
+    return distance
+
+
 def _table(sail: RigidSail, duration_s: float, relativistic: bool, lengths: list[float]) -> FlightTable:
     """The flights of ``sail`` with diffraction lengths ``lengths``, tabled to ``duration_s``."""
     for length in lengths:
@@ -402,10 +418,10 @@ class DrawFlights:
         self.flights = [Flight(duration, relativistic, length, self.table, j) for j, length in enumerate(lengths)]
         self.nominal = self.flights[count // 2]
         self._positions = np.arange(count, dtype=float)
-        speed = SPEED_OF_LIGHT
-        self._picks = {"speed": lambda p, d: _beta(p, relativistic) * speed,
-                       "power_factor": lambda p, d: _power_factor(p, relativistic),
-                       "distance": lambda p, d: d}
+        # Module functions, not lambdas: the flights are pickled into the table cache (physics/memo.py).
+        self._picks = {"speed": functools.partial(_pick_speed, relativistic=relativistic),
+                       "power_factor": functools.partial(_pick_power_factor, relativistic=relativistic),
+                       "distance": _pick_distance}
 
     def _both(self, ratio: np.ndarray, t: np.ndarray) -> tuple:
         """``(τ, rows, weights)``: the draws' flight times on the nominal clock and the two table rows
