@@ -15,8 +15,8 @@ its kernels, which round differently), so a change to any of them builds afresh.
 the built one to the bit. ``LIGHTSAIL_GYM_CACHE`` names the directory (default
 ``$XDG_CACHE_HOME/lightsail-gym``, else ``~/.cache/lightsail-gym``); ``off`` keeps tables in memory
 only. A directory that cannot be written, or a table that cannot be stored, is kept in memory only; a
-file that cannot be read is built again. Old files are never removed (each is 0.03–6 MB): delete the
-directory to reclaim the space. The
+file that cannot be read is built again. Of each kind of table the :data:`TABLES_KEPT` most recently
+used files are kept (0.03–2 MB each), the older removed. The
 files are pickles, as Numba's cache is: a directory others can write is not one to load from.
 """
 
@@ -34,7 +34,7 @@ from typing import TypeVar
 
 import numpy as np
 
-#: How many distinct tables of one kind a process keeps (the least recently used goes first).
+#: How many distinct tables of one kind a process keeps, and the disk (the least recently used go first).
 TABLES_KEPT = 16
 #: The environment variable naming the tables' directory on disk (``off``: none).
 CACHE_VARIABLE = "LIGHTSAIL_GYM_CACHE"
@@ -104,7 +104,9 @@ def _stored(factory: Callable[..., Table], args: tuple) -> Table:
     path = directory / f"{factory.__qualname__}-{key.hexdigest()[:32]}.pkl"
     try:
         with path.open("rb") as file:
-            return pickle.load(file)
+            table = pickle.load(file)
+        os.utime(path)  # recently used: kept by _prune
+        return table
     except Exception:  # missing, truncated or from another layout: build it again
         pass
     table = factory(*args)
@@ -117,12 +119,21 @@ def _stored(factory: Callable[..., Table], args: tuple) -> Table:
         with os.fdopen(handle, "wb") as file:
             pickle.dump(table, file, protocol=pickle.HIGHEST_PROTOCOL)
         os.replace(temporary, path)  # atomic: a reader sees the whole file or none
+        _prune(directory, factory.__qualname__)
     except Exception:  # a full disk, or a table that does not pickle: kept in memory only
         pass
     finally:
         if os.path.exists(temporary):
             os.unlink(temporary)
     return table
+
+
+def _prune(directory: Path, name: str) -> None:
+    """Keep the :data:`TABLES_KEPT` most recently used files of one kind of table: each change of the
+    code writes new ones, and the old are never read again."""
+    files = sorted(directory.glob(f"{name}-*.pkl"), key=lambda path: path.stat().st_mtime, reverse=True)
+    for path in files[TABLES_KEPT:]:
+        path.unlink(missing_ok=True)
 
 
 def _make_read_only(value: object, seen: set[int] | None = None) -> None:

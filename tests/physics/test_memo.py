@@ -2,6 +2,7 @@
 and another sail gets its own."""
 
 import dataclasses
+import time
 
 import gymnasium as gym
 import numpy as np
@@ -94,6 +95,18 @@ def test_a_new_machine_set_up_or_unreadable_file_builds_afresh(tables_dir, monke
     for path in tables_dir.glob("*.pkl"):
         path.write_bytes(b"truncated")
     assert np.array_equal(built_once(counted_table)(5), np.arange(5) / 7.0) and BUILT == [5, 5, 5]
+
+
+def test_the_disk_keeps_the_most_recently_used_tables_of_a_kind(tables_dir, monkeypatch):
+    monkeypatch.setattr(memo, "TABLES_KEPT", 2)
+    once = built_once(counted_table)
+    for step in (lambda: once(1), lambda: once(2), lambda: built_once(counted_table)(1), lambda: once(3)):
+        step()  # the third reads 1 from disk: 1 is then the most recently used
+        time.sleep(0.03)  # apart in the file system's clock (a few ms a tick)
+    built_once(counted_table)(1), built_once(counted_table)(3)
+    assert BUILT == [1, 2, 3] and len(list(tables_dir.glob("counted_table-*.pkl"))) == 2
+    built_once(counted_table)(2)  # its file was the oldest: removed, built again
+    assert BUILT == [1, 2, 3, 2]
 
 
 @pytest.mark.parametrize("setting", ["off", "a file"])

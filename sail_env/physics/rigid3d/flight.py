@@ -209,10 +209,22 @@ class FlightTable:
         # d²D/dt² = c dβ/dt = c d(γβ)/dt / γ³ (Newton: c dβ/dt).
         gamma3 = (1.0 + self.momentum**2) ** 1.5 if relativistic else 1.0
         self.distance_accel = SPEED_OF_LIGHT * self.momentum_rate / gamma3
+        self._index()
+
+    def _index(self) -> None:
+        """The reads' views of the table: every node's quantities together, as arrays and as floats."""
         self._nodes = np.stack([self.times, self.momentum, self.momentum_rate, self.distance, self.distance_rate,
                                 self.distance_accel], axis=-1)
         self._node_lists = self._nodes.tolist()
         self._kink_lists = self.kink_times.tolist()
+
+    def __getstate__(self) -> dict:
+        """The table without its views (a third of the pickle in the disk cache, physics/memo.py)."""
+        return {k: v for k, v in vars(self).items() if k not in ("_nodes", "_node_lists", "_kink_lists")}
+
+    def __setstate__(self, state: dict) -> None:
+        vars(self).update(state)
+        self._index()
 
     @staticmethod
     def _flight(k: float, length: float, uniform: np.ndarray, kinks: list[float], relativistic: bool,
