@@ -63,7 +63,12 @@ def cache_dir() -> Path | None:
     named = os.environ.get(CACHE_VARIABLE)
     if named is not None:
         return None if named.strip().lower() in ("", "off") else Path(named)
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "lightsail-gym"
+    if os.environ.get("XDG_CACHE_HOME"):
+        return Path(os.environ["XDG_CACHE_HOME"]) / "lightsail-gym"
+    try:
+        return Path.home() / ".cache" / "lightsail-gym"
+    except RuntimeError:  # no home directory to be found: memory only
+        return None
 
 
 @functools.cache

@@ -132,3 +132,14 @@ def test_the_flights_loaded_from_disk_are_the_built_ones_to_the_bit(tables_dir):
     for read in ("speed", "power_factor", "distance"):
         assert getattr(loaded, read)(np.full(7, 1.1), times).tobytes() == \
             getattr(fresh, read)(np.full(7, 1.1), times).tobytes()
+
+
+def test_the_directory_is_the_variable_s_else_the_xdg_cache_s_else_the_home_s(monkeypatch, tmp_path):
+    monkeypatch.delenv(memo.CACHE_VARIABLE)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert memo.cache_dir() == tmp_path / "lightsail-gym"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert memo.cache_dir() == tmp_path / "home" / ".cache" / "lightsail-gym"
+    monkeypatch.setenv(memo.CACHE_VARIABLE, " Off ")
+    assert memo.cache_dir() is None
