@@ -31,21 +31,21 @@ F = TypeVar("F", bound=Callable)
 
 
 @functools.lru_cache(maxsize=1)
-def _libraries() -> tuple:
+def blas_libraries() -> tuple:
     """The BLAS libraries of this process (threadpoolctl's controllers), listed once."""
     return tuple(lib for lib in ThreadpoolController().lib_controllers if lib.user_api == "blas")
 
 
 def blas_threads() -> list[int]:
     """The thread count of each BLAS library in the process (for tests and diagnostics)."""
-    return [lib.get_num_threads() for lib in _libraries()]
+    return [lib.get_num_threads() for lib in blas_libraries()]
 
 
 @contextlib.contextmanager
 def one_blas_thread() -> Iterator[None]:
     """Run the block with every BLAS library at one thread; restore each one's count after."""
     changed = []
-    for lib in _libraries():
+    for lib in blas_libraries():
         count = lib.get_num_threads()
         if count != 1:
             lib.set_num_threads(1)
