@@ -158,11 +158,18 @@ def check_hyperparams(config: dict[str, Any]) -> None:
     if unknown:
         raise ValueError(f"{where}: {algo} has no hyperparameter {', '.join(unknown)}")
     try:
-        normalize_kwargs(hp.get("normalize", False))
+        normalized = normalize_kwargs(hp.get("normalize", False)) is not None
         residual_of(hp)
         algo_kwargs({k: v for k, v in hp.items() if k not in RUN_KEYS}, 1)
     except ValueError as err:
         raise ValueError(f"{where}: {err}") from err
+    # SB3's off-policy algorithms store VecNormalize's original observations in their replay buffer and
+    # normalise them when sampling: below VecFrameStack those are single observations, not the stack
+    # the policy sees (the first stored transition fails on the shapes).
+    if algo not in ON_POLICY and normalized and frame_stack_of(hp) > 1:
+        raise ValueError(f"{where}: frame_stack > 1 with normalize needs an on-policy algorithm "
+                         f"({', '.join(sorted(ON_POLICY))}); {algo}'s replay buffer would store unstacked "
+                         f"observations: set frame_stack: 1 or normalize: false")
 
 
 def whole_rollouts(algo: str, total: int, hp: dict[str, Any]) -> int:

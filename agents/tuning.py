@@ -66,7 +66,8 @@ def sample_recurrent_ppo(trial: optuna.Trial) -> dict[str, Any]:
 
 
 def sample_off_policy(trial: optuna.Trial) -> dict[str, Any]:
-    """SAC's and TD3's shared search space (one env, normalised observations)."""
+    """SAC's and TD3's shared search space (one env, normalised observations; no history: with
+    normalisation their replay buffer cannot hold a stack, :func:`agents.training.check_hyperparams`)."""
     train_freq = trial.suggest_categorical("train_freq", [1, 4, 8, 16])
     return {"n_envs": 1, "normalize": "dict(norm_obs=True, norm_reward=False)",
             "learning_rate": trial.suggest_float("learning_rate", 1e-5, 3e-3, log=True),
@@ -75,7 +76,7 @@ def sample_off_policy(trial: optuna.Trial) -> dict[str, Any]:
             "learning_starts": trial.suggest_categorical("learning_starts", [100, 1000, 5000]),
             "gamma": trial.suggest_categorical("gamma", [0.98, 0.99, 0.995, 0.999]),
             "tau": trial.suggest_categorical("tau", [0.005, 0.01, 0.02, 0.05]),
-            "train_freq": train_freq, "gradient_steps": train_freq, "frame_stack": history(trial),
+            "train_freq": train_freq, "gradient_steps": train_freq,
             "policy_kwargs": network(trial, "")}
 
 

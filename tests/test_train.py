@@ -175,6 +175,23 @@ def test_a_bad_hyperparameter_entry_is_a_one_line_error_and_writes_nothing(
     assert not (tmp_path / "runs").exists()
 
 
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_an_off_policy_run_refuses_a_normalised_stack(algo: str, tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """SB3's replay buffer stores VecNormalize's original observations, which VecFrameStack above it has
+    not stacked: the first stored transition failed on the shapes, after the model was built."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "stack.yml").write_text("LightSail-v0:\n  n_timesteps: 300\n  learning_starts: 10\n"
+                                        "  normalize: true\n  frame_stack: 2\n")
+    assert train.main(["--algo", algo, "--config", "stack.yml", "--no-progress-bar"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "frame_stack > 1 with normalize needs an on-policy algorithm" in err and "\n" not in err
+    assert not (tmp_path / "runs").exists()
+    (tmp_path / "stack.yml").write_text("LightSail-v0:\n  n_timesteps: 300\n  learning_starts: 10\n"
+                                        "  normalize: false\n  frame_stack: 2\n")
+    assert train.main(["--algo", algo, "--config", "stack.yml", "--eval-freq", "0", "--no-progress-bar"]) == 0
+
+
 def test_a_refused_configuration_leaves_runs_latest_alone(tmp_path: Path, capsys: pytest.CaptureFixture,
                                                           monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)

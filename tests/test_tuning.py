@@ -41,6 +41,10 @@ def test_the_recurrent_search_space_trains(tmp_path: Path, monkeypatch: pytest.M
               "activation_fn": "tanh", "lstm_hidden_size": 32, "enable_critic_lstm": False}
     hp = {"policy": "MlpLstmPolicy", "n_timesteps": 128, **tuning.SAMPLERS["recurrent_ppo"](optuna.trial.FixedTrial(params))}
     assert hp["frame_stack"] == 1
+    off_policy = tuning.SAMPLERS["sac"](optuna.trial.FixedTrial({
+        "train_freq": 4, "learning_rate": 1e-4, "batch_size": 64, "buffer_size": 10_000, "learning_starts": 100,
+        "gamma": 0.99, "tau": 0.01, "net_arch": "small", "activation_fn": "tanh"}))
+    assert off_policy.get("frame_stack", 1) == 1  # normalised, SAC's and TD3's replay buffer cannot hold a stack
     (tmp_path / "rp.yml").write_text(yaml.safe_dump({"LightSail-v0": hp}))
     assert training.main(["--algo", "recurrent_ppo", "--config", "rp.yml", "--n-envs", "1", "--eval-freq", "0",
                           "--out", "run", "--no-progress-bar"]) == 0
