@@ -13,10 +13,18 @@ def package_versions(*packages: str) -> dict[str, str]:
     return {"python": platform.python_version(), **{p: importlib.metadata.version(p) for p in packages}}
 
 
+def cpu_model() -> str:
+    """The CPU's model (OpenBLAS picks its kernels by it, and they set the last bits of a result): x86's
+    model name, or ARM's implementer and part; else the platform's word for it."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        lines = []
+    named = [line.split(":", 1)[1].strip() for line in lines
+             if line.startswith(("model name", "CPU implementer", "CPU part"))]
+    return " ".join(dict.fromkeys(named)) or platform.processor() or platform.machine()
+
+
 def machine() -> dict[str, object]:
-    """The CPU model (its BLAS kernels set the last bits of a result), core count and system."""
-    cpuinfo = Path("/proc/cpuinfo")
-    models = [line.split(":", 1)[1].strip() for line in (cpuinfo.read_text().splitlines() if cpuinfo.exists() else [])
-              if line.startswith("model name")]
-    return {"cpu": models[0] if models else platform.processor() or platform.machine(), "cpus": os.cpu_count(),
-            "system": platform.platform()}
+    """The CPU model (:func:`cpu_model`), core count and system."""
+    return {"cpu": cpu_model(), "cpus": os.cpu_count(), "system": platform.platform()}

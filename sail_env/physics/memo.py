@@ -103,24 +103,13 @@ def code_version() -> str:
     import scipy
 
     from sail_env.physics.blas import blas_libraries
+    from sail_env.provenance import cpu_model
 
     blas = [f"{lib.internal_api} {lib.version} {lib.architecture}" for lib in blas_libraries()]
     settings = [_SOURCES, sys.version, np.__version__, scipy.__version__, numba.__version__,
-                f"NUMBA_DISABLE_JIT={os.environ.get('NUMBA_DISABLE_JIT')}", platform.machine(), _cpu_model(),
+                f"NUMBA_DISABLE_JIT={os.environ.get('NUMBA_DISABLE_JIT')}", platform.machine(), cpu_model(),
                 _numpy_cpu_features(), *blas, *(f"{name}={os.environ.get(name)}" for name in BLAS_VARIABLES)]
     return hashlib.sha256("\n".join(settings).encode()).hexdigest()
-
-
-def _cpu_model() -> str:
-    """The CPU's model (OpenBLAS picks its kernels by it): x86's model name, or ARM's implementer and
-    part; else the platform's word for it."""
-    try:
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-    except OSError:
-        return platform.processor()
-    named = [line.split(":", 1)[1].strip() for line in lines
-             if line.startswith(("model name", "CPU implementer", "CPU part"))]
-    return " ".join(dict.fromkeys(named)) or platform.processor()
 
 
 def _numpy_cpu_features() -> str:
