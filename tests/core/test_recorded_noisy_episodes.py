@@ -7,10 +7,14 @@ that alters them is a new env version. Regenerate (only with a new version):
 
 Tolerances: the same machine reproduces them to the last bit; another CPU's BLAS kernel rounds the
 last bits of a product differently, which the coast's ~40,000 rad of phase amplifies (the
-cross-kernel benchmark measured < 1e-6 in the pointing, docs/physics.md §3).
+cross-kernel benchmark measured < 1e-6 in the pointing, docs/physics.md §3). The window's rewards
+hold to 1e-9; the last one holds the terminal pointing's ``-log10``, so its tolerance is the
+pointing's relative one over ln 10 (under ``OPENBLAS_CORETYPE=Haswell`` the v1 episode of seed 3
+ends 1.2e-9 from the record made under SkylakeX, a pointing 2.8e-9 apart).
 """
 
 import json
+import math
 from pathlib import Path
 
 import gymnasium as gym
@@ -22,6 +26,8 @@ import sail_env  # noqa: F401
 PATH = Path(__file__).parents[1] / "data" / "episodes_v0_2_0.json"
 TASKS = ("LightSailRealistic-v0", "LightSail3DRealistic-v0", "LightSail3DRealistic-v1")
 SEEDS = (3, 40)
+#: Relative tolerance of the terminal pointing across BLAS kernels.
+POINTING_RTOL = 1e-6
 
 
 def play(env_id: str, seed: int) -> dict:
@@ -52,8 +58,9 @@ def test_noisy_episodes_are_those_recorded(env_id, seed):
     played = play(env_id, seed)
     for key in ("first_obs", "obs_7", "last_obs"):
         np.testing.assert_allclose(played[key], recorded[key], rtol=1e-6, atol=1e-6, err_msg=key)
-    np.testing.assert_allclose(played["rewards"], recorded["rewards"], rtol=0, atol=1e-9)
-    assert played["pointing"] == pytest.approx(recorded["pointing"], rel=1e-6)
+    np.testing.assert_allclose(played["rewards"][:-1], recorded["rewards"][:-1], rtol=0, atol=1e-9)
+    assert played["rewards"][-1] == pytest.approx(recorded["rewards"][-1], rel=0, abs=POINTING_RTOL / math.log(10))
+    assert played["pointing"] == pytest.approx(recorded["pointing"], rel=POINTING_RTOL)
     assert (played["success"], played["diverged"]) == (recorded["success"], recorded["diverged"])
 
 
