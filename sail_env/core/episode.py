@@ -117,9 +117,12 @@ class EpisodeCore:
         self._jittered, self._impacts, self._pushed, self._sensed = jittered, impacts, pushed, sensed
 
     def _set_tables(self, tables: np.ndarray) -> None:
-        """Keep the look-ahead tables (K, R·c, S) and the step's view of them (:func:`kernels.step_tables`)."""
+        """Keep the look-ahead tables (K, R·c, S) and the step's views of them and of the plant's
+        step (:func:`kernels.shared_table`)."""
         self.envelope_tables = tables
-        self._step_tables = kernels.step_tables(tables, self.num_envs)
+        self._step_tables = kernels.shared_table(tables, self.num_envs)
+        self._step_model = kernels.shared_table(self.state.params.step, self.num_envs)
+        self._block, self._pad = kernels.scratch(self.state.layout, tables.shape[-1], self.num_envs)
 
     @staticmethod
     def _transposed(envelope: np.ndarray) -> np.ndarray:
@@ -199,7 +202,7 @@ class EpisodeCore:
             state.states[index, 0] = x
             # The light-delayed first observation shows the state lag0 steps before control.
             kernels.pre_control(np.asarray(index, dtype=np.int64), state.floats, state.ints, state.layout,
-                                self.consts, state.params.step)
+                                self.consts, state.params.step, self._block, self._pad)
 
     # ------------------------------------------------------------------ step
     def step(self, action: np.ndarray) -> StepResult:
@@ -217,8 +220,8 @@ class EpisodeCore:
         (N, D) float32, the rest into :attr:`state`. Returns how many episodes terminated; the caller
         then scores them (:meth:`score`). What the single env's hot path calls."""
         state = self.state
-        ended = kernels.step(action, out, state.floats, state.ints, state.layout, self.consts, state.params.step,
-                             self._step_tables, state.params.limits)
+        ended = kernels.step(action, out, state.floats, state.ints, state.layout, self.consts, self._step_model,
+                             self._step_tables, state.params.limits, self._block, self._pad)
         if ended < 0:
             if ended == -2:
                 raise RuntimeError("step() called on a finished episode; call reset() first")
@@ -259,7 +262,7 @@ class EpisodeCore:
         biased = plant.with_bias(u)
         out = np.empty(len(index))
         kernels.peak_speeds(index, np.ascontiguousarray(x), np.ascontiguousarray(biased), len(plant.velocity_rows),
-                            self.envelope_tables, out)
+                            self.envelope_tables, out, self.state.layout, self._block, self._pad)
         return out
 
     # ------------------------------------------------------------------ coast and observation
@@ -270,7 +273,8 @@ class EpisodeCore:
         params = state.params.take(index)
         if spec.disturbances.light_delay:
             x, step = np.empty((len(index), plant.n_states)), np.empty(len(index), dtype=np.int64)
-            kernels.in_flight(index, x, step, state.floats, state.ints, state.layout, self.consts, state.params.step)
+            kernels.in_flight(index, x, step, state.floats, state.ints, state.layout, self.consts, state.params.step,
+                              self._block, self._pad)
         else:
             x, step = state.x[index], state.step[index]
         held = state.last_command[index]
