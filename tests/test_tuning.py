@@ -138,3 +138,53 @@ def test_a_stopped_trial_is_queued_again_and_resumes_its_checkpoint(tmp_path: Pa
     assert [s["status"] for s in sessions] == ["interrupted", "finished"]
     assert sessions[1]["start_timesteps"] == sessions[0]["timesteps"] > 0
     assert done.value == training.read_best(run_dir)["success_rate"]
+
+
+def finished_study(storage: str, name: str) -> optuna.Study:
+    """A study with a complete and a pruned trial, as the tuner leaves them."""
+    study = optuna.create_study(storage=storage, study_name=name, direction="maximize")
+    space = {"learning_rate": optuna.distributions.FloatDistribution(1e-5, 3e-3, log=True),
+             "n_steps": optuna.distributions.CategoricalDistribution([64, 128])}
+    for value, state, steps in ((0.8, TrialState.COMPLETE, {100: 0.5, 200: 0.8}), (None, TrialState.PRUNED, {100: 0.1})):
+        study.add_trial(optuna.trial.create_trial(
+            state=state, value=value, params={"learning_rate": 1e-4, "n_steps": 128 if value else 64},
+            distributions=space, intermediate_values=steps,
+            user_attrs={"hyperparams": {"policy": "MlpPolicy", "n_steps": 128, "n_timesteps": 200}}))
+    return study
+
+
+def test_exported_trials_come_back_in_a_fresh_storage(tmp_path: Path) -> None:
+    """A fresh checkout has no runs/: the trials kept with the code (--export) are the study's
+    again (--import), once, for the sampler, the pruner and best.yml."""
+    finished_study(f"sqlite:///{tmp_path}/a.db", "s")
+    out = tmp_path / "kept/s.json"
+    assert tuning.main(["--algo", "ppo", "--storage", f"sqlite:///{tmp_path}/a.db", "--study", "s",
+                        "--export", str(out)]) == 0
+    exported = tuning.read_export(out, "s")
+    fresh = optuna.create_study(storage=f"sqlite:///{tmp_path}/b.db", study_name="s", direction="maximize")
+    assert tuning.import_trials(fresh, exported) == 2 and tuning.import_trials(fresh, exported) == 0
+    old = optuna.load_study(study_name="s", storage=f"sqlite:///{tmp_path}/a.db").get_trials()
+    new = fresh.get_trials()
+    for before, after in zip(old, new):
+        assert (after.state, after.value, after.params, after.intermediate_values, after.distributions) == \
+            (before.state, before.value, before.params, before.intermediate_values, before.distributions)
+        assert after.user_attrs["hyperparams"] == before.user_attrs["hyperparams"]
+    assert "success rate 80.0%" in tuning.best_yaml(fresh, "LightSail-v0")
+    # Exported again from the fresh storage and imported into a third, each trial still comes once.
+    assert tuning.import_trials(fresh, tuning.exported_trials(fresh)) == 0
+
+
+def test_kept_trials_of_another_study_or_a_missing_one_are_refused(tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    finished_study(f"sqlite:///{tmp_path}/a.db", "s")
+    out = tmp_path / "s.json"
+    assert tuning.main(["--algo", "ppo", "--storage", f"sqlite:///{tmp_path}/a.db", "--study", "s",
+                        "--export", str(out)]) == 0
+    capsys.readouterr()
+    fresh = f"sqlite:///{tmp_path}/b.db"
+    assert tuning.main(["--algo", "ppo", "--storage", fresh, "--study", "other", "--import", str(out),
+                        "--runs-dir", str(tmp_path / "runs")]) == 2
+    assert tuning.main(["--algo", "ppo", "--storage", fresh, "--study", "other", "--export", str(out)]) == 2
+    errors = capsys.readouterr().err.splitlines()
+    assert len(errors) == 2 and "holds study 's', not 'other'" in errors[0] and "no study 'other'" in errors[1]
+    assert not (tmp_path / "b.db").exists() and not (tmp_path / "runs").exists()
