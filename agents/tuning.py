@@ -189,34 +189,38 @@ def best_yaml(study: optuna.Study, env_id: str) -> str:
 FINISHED = (TrialState.COMPLETE, TrialState.PRUNED)
 
 
+def origin(study_name: str, trial: FrozenTrial) -> str:
+    """Where a finished trial first ran: the study, its number and start there (an imported trial
+    keeps its own; numbers alone repeat in every storage)."""
+    started = trial.datetime_start.isoformat() if trial.datetime_start else "?"
+    return trial.user_attrs.get("imported") or f"{study_name}#{trial.number}@{started}"
+
+
 def exported_trials(study: optuna.Study) -> dict[str, Any]:
     """The study's finished trials as JSON: what the sampler, the pruner and ``best.yml`` read."""
     return {"study": study.study_name, "trials": [
-        {"number": t.number, "state": t.state.name, "value": t.value, "params": t.params,
+        {"origin": origin(study.study_name, t), "state": t.state.name, "value": t.value, "params": t.params,
          "distributions": {name: json.loads(distribution_to_json(d)) for name, d in t.distributions.items()},
          "intermediate_values": {str(step): v for step, v in t.intermediate_values.items()},
-         "hyperparams": t.user_attrs.get("hyperparams"), "imported": t.user_attrs.get("imported")}
+         "hyperparams": t.user_attrs.get("hyperparams")}
         for t in study.get_trials(deepcopy=False, states=FINISHED)]}
 
 
 def import_trials(study: optuna.Study, exported: dict[str, Any]) -> int:
-    """Add the ``exported`` trials (:func:`exported_trials`) the study lacks; returns how many. Each
-    keeps where it came from (``imported``: the study and trial number), so a second import adds
-    nothing; a trial the study itself exported is not added back."""
+    """Add the ``exported`` trials (:func:`exported_trials`) the study lacks (by :func:`origin`, so
+    that a second import adds nothing); returns how many."""
     if exported["study"] != study.study_name:
         raise ValueError(f"the trials are study {exported['study']!r}'s, not {study.study_name!r}'s")
-    present = {t.user_attrs.get("imported") for t in study.get_trials(deepcopy=False)}
-    present |= {f"{study.study_name}#{t.number}" for t in study.get_trials(deepcopy=False)}
+    present = {origin(study.study_name, t) for t in study.get_trials(deepcopy=False)}
     added = 0
     for record in exported["trials"]:
-        origin = record["imported"] or f"{exported['study']}#{record['number']}"
-        if origin in present:
+        if record["origin"] in present:
             continue
         study.add_trial(create_trial(
             state=TrialState[record["state"]], value=record["value"], params=record["params"],
             distributions={name: json_to_distribution(json.dumps(d)) for name, d in record["distributions"].items()},
             intermediate_values={int(step): v for step, v in record["intermediate_values"].items()},
-            user_attrs={"hyperparams": record["hyperparams"], "imported": origin}))
+            user_attrs={"hyperparams": record["hyperparams"], "imported": record["origin"]}))
         added += 1
     return added
 

@@ -170,8 +170,11 @@ def test_exported_trials_come_back_in_a_fresh_storage(tmp_path: Path) -> None:
             (before.state, before.value, before.params, before.intermediate_values, before.distributions)
         assert after.user_attrs["hyperparams"] == before.user_attrs["hyperparams"]
     assert "success rate 80.0%" in tuning.best_yaml(fresh, "LightSail-v0")
-    # Exported again from the fresh storage and imported into a third, each trial still comes once.
+    # Exported again from the fresh storage, each trial still comes once; a study's own trials
+    # (numbered from 0 in every storage) are not mistaken for the kept ones.
     assert tuning.import_trials(fresh, tuning.exported_trials(fresh)) == 0
+    own = finished_study(f"sqlite:///{tmp_path}/c.db", "s")
+    assert tuning.import_trials(own, exported) == 2 and len(own.get_trials()) == 4
 
 
 def test_kept_trials_of_another_study_or_a_missing_one_are_refused(tmp_path: Path,
