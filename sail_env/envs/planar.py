@@ -166,7 +166,6 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
         # What the step's hot path reads (an attribute lookup each, not a chain).
         self._action_shape = self.action_space.shape
         self._state_names = spec.plant.state_names
-        self._batch_action = (1, spec.plant.n_inputs)
         self._batch_observation = (1, spec.observation_size)
         self._start_s, self._dt = spec.config.control_start_s, spec.dt
         self._renderer: SailRenderer | None = None
@@ -194,11 +193,11 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"action must be {size} real numbers (shape ({size},)), got {action!r}")
         core, obs = self.core, np.empty(self._batch_observation, dtype=np.float32)
         try:
-            ended = core.advance(action.reshape(self._batch_action), obs)
+            ended = core.advance(action[None], obs)  # the batch of one (the shape was checked above)
         except ValueError:
             raise ValueError(f"action must be finite, got {action}") from None
         state = core.state
-        info = {"state": dict(zip(self._state_names, state.x[0].tolist())),
+        info = {"state": dict(zip(self._state_names, state.x.tolist()[0])),  # no view of the row: ~0.3 µs less
                 "t": self._start_s + state.step.item(0) * self._dt}
         if ended:
             result = core.score()
