@@ -302,7 +302,8 @@ def scratch(layout: np.ndarray, samples: int, envs: int) -> tuple[np.ndarray, np
 @inlined
 def _work(layout: np.ndarray, block: np.ndarray, pad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``pad`` (:func:`scratch`) as ``work`` (c + n + 3, B): the physics' inputs and states, its
-    results, ε, the peak speed and a sum of each of the block's environments; and ``sums``, the rest."""
+    results, ε, the peak speed and a sum (the plant step's, then the reward) of each of the block's
+    environments; and ``sums``, the rest."""
     width = block.shape[1]
     size = (layout[_NC] + layout[_NS] + 3) * width
     return pad[:size].reshape((layout[_NC] + layout[_NS] + 3, width)), pad[size:]
@@ -334,7 +335,7 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
                 return -1
     width = block.shape[1]
     work, sums = _work(layout, block, pad)
-    speed = cols + n + 1  # the row of work that receives the peak speeds
+    speed, reward = cols + n + 1, cols + n + 2  # the rows of work that receive the peak speeds and the rewards
     delayed = layout[_T] > 0
     ring, window = layout[_CR], layout[_WIN]
     ended = 0
@@ -367,6 +368,9 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
             if cols > n + m:
                 work[n + m, b] = 1.0
         _peak_speeds(block, count, work, cols, speed, envelope, layout[_NR], sums)
+        for b in range(count):  # the envelopes, then the rewards: no call in the loop, so it vectorises
+            work[speed, b] = work[speed, b] / floats[_fl(layout, _SPEED, block[0, b])]
+            work[reward, b] = -log_ratio_of(work[speed, b]) / window
         for b in range(count):
             i = first + b
             now = ints[_it(layout, _STEP, i)] + 1
@@ -377,11 +381,9 @@ def step(action: np.ndarray, out: np.ndarray, floats: np.ndarray, ints: np.ndarr
                 for k in range(n):
                     floats[target + k] = floats[x0 + k]
             diverged = _diverged(i, floats, layout, limits)
-            envelope_rad = work[speed, b] / floats[_fl(layout, _SPEED, i)]
-            floats[_fl(layout, _ENV, i)] = envelope_rad
-            reward = -log_ratio_of(envelope_rad) / window
+            floats[_fl(layout, _ENV, i)] = work[speed, b]
             terminated = diverged or now >= window
-            floats[_fl(layout, _REWARD, i)] = DIVERGENCE_PENALTY if diverged else reward
+            floats[_fl(layout, _REWARD, i)] = DIVERGENCE_PENALTY if diverged else work[reward, b]
             ints[_it(layout, _TERM, i)] = terminated
             ints[_it(layout, _DIV, i)] = diverged
             if terminated:

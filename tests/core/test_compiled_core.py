@@ -10,13 +10,14 @@ import sys
 from pathlib import Path
 
 import gymnasium as gym
+import numba
 import numpy as np
 import pytest
 
 import sail_env  # noqa: F401
 from sail_env.core.delay import arrived_command
 from sail_env.core.episode import EpisodeCore
-from sail_env.core.reward import log_ratio, succeeded
+from sail_env.core.reward import LOG_RATIO_RANGE, log10, log_ratio, succeeded
 from sail_env.core.state import EpisodeState
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
@@ -80,6 +81,27 @@ def test_log_ratio_is_clipped_and_keeps_nan():
     values = log_ratio(np.array([0.0, 1e-8, 1e-7, 1.0, np.nan]))
     np.testing.assert_array_equal(values[:4], [-2.0, 0.0, 1.0, 3.0])
     assert np.isnan(values[4])
+
+
+@numba.njit
+def _log10_of_each(x: np.ndarray, out: np.ndarray) -> None:
+    for i in range(x.shape[0]):
+        out[i] = log10(x[i])
+
+
+@pytest.mark.parametrize("decades", [(-3, 4), (-307, 308)])
+def test_the_rewards_log10_is_the_libraries_to_a_unit_in_the_last_place(decades):
+    """The reward's arithmetic ``log10`` against the C library's, over the ratios the reward keeps
+    and over every positive normal number (the edges of the mantissa's range included)."""
+    x = 10 ** np.random.default_rng(1).uniform(*decades, 1_000_000)
+    x = np.concatenate([x, np.nextafter(np.sqrt(2.0), [0.0, 2.0]), [1.0, 2.0, 10.0, 1e-292, np.finfo(float).max,
+                                                                   np.finfo(float).tiny]])
+    ours = np.empty_like(x)
+    _log10_of_each(x, ours)
+    error = np.abs(ours - np.log10(x))
+    assert error.max() <= 2.0 ** -52 and (error == 0).mean() > 0.9
+    _log10_of_each(np.array([np.inf]), ours[:1])
+    assert ours[0] > LOG_RATIO_RANGE[1]
 
 
 def test_the_delay_rule_gives_the_newest_arrived_command():
