@@ -5,6 +5,8 @@ Optuna trial in a relational database, taken by whichever worker asks next.
     python -m agents.grid status              # done, running (where), failed, what remains
     python -m agents.grid render --readme docs/learners.md   # the table in docs/learners.md from the database
     python -m agents.grid redo --agents lqg   # queue cells again after their code changed
+    python -m agents.grid export --study realistic --file benchmarks/results/grid/realistic.json
+    python -m agents.grid import --study realistic --file benchmarks/results/grid/realistic.json
 
 The default storage is a SQLite file, ``runs/grid.db``: nothing to set up. With
 ``--storage postgresql://user:password@host/db`` the same commands run one grid from any
@@ -12,6 +14,10 @@ number of machines (start ``run`` on each). Why Optuna's storage rather than SQL
 directly: its trial queue (``enqueue_trial`` / ``ask``) hands each waiting trial to exactly
 one worker, its heartbeats find the cells of workers that died, and its tools (the
 dashboard, ``optuna.load_study``) read the results with no code of ours.
+
+``runs/`` is not versioned: ``export`` writes the grid's settings and finished cells to a file that
+can be committed, and ``import`` makes them a new grid in any storage (a fresh checkout's), with
+the cells they lack queued; ``run`` with the grid's arguments then goes on (:mod:`agents.kept`).
 
 A cell's files live in ``--runs-dir`` (``runs/grid/<study>/<cell>``). A cell whose worker
 stops (Ctrl-C, SIGTERM) is put back at once; one whose worker dies stops beating and is put
@@ -46,7 +52,7 @@ from optuna.trial import FrozenTrial, TrialState
 from optuna.exceptions import UpdateFinishedTrialError
 from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError, SQLAlchemyError
 
-from agents import cli, evaluation, training
+from agents import cli, evaluation, kept, training
 from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, policy_of, versions
 from sail_env.tasks import PLANAR_TASKS, RIGID3D_TASKS, TASKS
 
@@ -85,7 +91,9 @@ GRACE_HEARTBEATS = 2
 COMMANDS = {"run": "a worker: takes cells until none is left (creates the grid on first use)",
             "status": "done, running (where), failed, what remains",
             "render": "the results table (--readme: also into that file's --section markers)",
-            "redo": "queue the cells of --agents on --envs again (after their code changed)"}
+            "redo": "queue the cells of --agents on --envs again (after their code changed)",
+            "export": "write the grid's settings and finished cells to --file (JSON, to keep with the code)",
+            "import": "make a new grid of --file's settings and cells; the cells it lacks are queued"}
 
 
 
@@ -229,6 +237,31 @@ def create_grid(storage: RDBStorage, study_name: str, cells: list[Cell], setting
 def enqueue(study: optuna.Study, cell: Cell) -> None:
     study.enqueue_trial({"env": cell.env, "agent": cell.agent, "hyperparameters": cell.hyperparameters,
                          "seed": cell.seed}, user_attrs={"cell": cell.name})
+
+
+def export_grid(study: optuna.Study, path: Path) -> int:
+    """``export``: the grid's settings and its cells' finished trials into ``path``; returns how many."""
+    trials = kept.kept_trials(study)
+    trials["trials"] = [t for t in trials["trials"] if t["user_attrs"].get("cell")]  # not a stray ask (claim)
+    kept.write(path, trials)
+    return len(trials["trials"])
+
+
+def import_grid(storage: RDBStorage, study_name: str, trials: dict[str, Any]) -> tuple[int, int]:
+    """``import``: a new grid of the kept ``trials``' settings and cells, the cells they lack queued
+    (a grid already in the storage is refused: its queue may hold the same cells). Returns how
+    many cells were imported and how many queued."""
+    if study_name in (s.study_name for s in optuna.get_all_study_summaries(storage, include_best_trial=False)):
+        raise cli.UsageError(f"import: the storage already has a grid {study_name!r}; import makes a new one")
+    settings = trials["user_attrs"]["settings"]
+    study = optuna.create_study(storage=storage, study_name=study_name, direction="maximize")
+    added = kept.add_trials(study, trials)
+    finished = {cell_of(t) for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))}
+    waiting = [cell for cell in grid_cells(settings) if cell not in finished]
+    for cell in waiting:
+        enqueue(study, cell)
+    study.set_user_attr("settings", settings)  # last: a worker starting meanwhile waits for it (create_grid)
+    return added, len(waiting)
 
 
 def redo(study: optuna.Study, agents: list[str], envs: list[str]) -> list[Cell]:
@@ -568,6 +601,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--readme", type=Path, help="render: write the table into this file's --section markers")
     parser.add_argument("--section", default=README_SECTION,
                         help="render: the markers' name (<!-- NAME:start --> … <!-- NAME:end -->)")
+    parser.add_argument("--file", type=Path, help="export: the file to write; import: the file to read")
     parser.add_argument("--classical", nargs="+", default=list(CLASSICAL), choices=list(evaluation.BASELINES),
                         metavar="AGENT", help=f"run: the classical rows ({', '.join(evaluation.BASELINES)}; "
                                               f"{' and '.join(sorted(THREE_D_ONLY))} on the 3D tasks only; "
@@ -580,6 +614,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                      f"got {args.grace}: a live worker's cell would be handed to a second worker")
     if args.readme is not None:
         cli.readme_around_section(args.readme, args.section)
+    if args.command in ("export", "import") and args.file is None:
+        parser.error(f"{args.command} needs --file")
+    if args.command == "export":
+        cli.check_writable_dir(args.file.parent, "--file")
     return args
 
 
@@ -597,7 +635,12 @@ def main(argv: list[str] | None = None) -> int:
             settings["classical"] = args.classical
         if not set(args.algos) <= set(LEARNERS):  # absent otherwise, as "classical"
             settings["learners"] = sorted(ALGOS)
-        storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command == "run")
+        trials = kept.read(args.file, args.study, "--file") if args.command == "import" else None
+        storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command in ("run", "import"))
+        if args.command == "import":
+            added, waiting = import_grid(storage, args.study, trials)
+            print(f"grid {args.study}: {added} finished cells imported, {waiting} queued")
+            return 0
         if args.command == "run":
             training.stop_on_signals()
             study = create_grid(storage, args.study, grid_cells(settings), settings)
@@ -610,6 +653,8 @@ def main(argv: list[str] | None = None) -> int:
     elif args.command == "redo":
         cells = redo(study, args.agents, args.envs)
         print(f"queued again: {', '.join(c.name for c in cells) or 'nothing'}")
+    elif args.command == "export":
+        print(f"grid {args.study}: {export_grid(study, args.file)} finished cells -> {args.file}")
     else:
         table = table_markdown(study)
         if args.readme is not None:

@@ -11,8 +11,8 @@ with the code, where a fresh checkout finds them (``runs/`` is not versioned):
     python -m agents.tuning --algo sac --env LightSailRealistic-v0 --export benchmarks/results/tuning/tune-sac-LightSailRealistic-v0.json
     python -m agents.tuning --algo sac --env LightSailRealistic-v0 --import benchmarks/results/tuning/tune-sac-LightSailRealistic-v0.json
 
-``--export`` writes them and stops; ``--import`` adds those the storage lacks, then goes on with the
-search: the sampler and the pruner see them as the study's own.
+``--export`` writes them and stops; ``--import`` adds those the storage lacks (:mod:`agents.kept`),
+then goes on with the search: the sampler and the pruner see them as the study's own.
 
 Each trial is a train.py run (``runs/tuning/<study>/trial-<N>``, numbered ``_2``, … if another
 study of that name, in another storage, left one there) whose evaluations report the
@@ -28,7 +28,6 @@ episodes with the batched env. The sampler, pruner and storage are Optuna's own.
 
 from __future__ import annotations
 
-import json
 import sys
 import warnings
 from pathlib import Path
@@ -38,10 +37,9 @@ from typing import Any
 import optuna
 import yaml
 from optuna.study import MaxTrialsCallback
-from optuna.distributions import distribution_to_json, json_to_distribution
-from optuna.trial import FrozenTrial, TrialState, create_trial
+from optuna.trial import FrozenTrial, TrialState
 
-from agents import cli, grid, training
+from agents import cli, grid, kept, training
 from agents.residual import RESIDUAL_BASES
 from agents.sb3 import ALGOS, ModelLoadError, load_hyperparams, policy_of
 from sail_env.tasks import TASKS
@@ -186,59 +184,6 @@ def best_yaml(study: optuna.Study, env_id: str) -> str:
     return header + yaml.safe_dump({env_id: best.user_attrs["hyperparams"]}, sort_keys=False)
 
 
-FINISHED = (TrialState.COMPLETE, TrialState.PRUNED)
-
-
-def origin(study_name: str, trial: FrozenTrial) -> str:
-    """Where a finished trial first ran: the study, its number and start there (an imported trial
-    keeps its own; numbers alone repeat in every storage)."""
-    started = trial.datetime_start.isoformat() if trial.datetime_start else "?"
-    return trial.user_attrs.get("imported") or f"{study_name}#{trial.number}@{started}"
-
-
-def exported_trials(study: optuna.Study) -> dict[str, Any]:
-    """The study's finished trials as JSON: what the sampler, the pruner and ``best.yml`` read."""
-    return {"study": study.study_name, "trials": [
-        {"origin": origin(study.study_name, t), "state": t.state.name, "value": t.value, "params": t.params,
-         "distributions": {name: json.loads(distribution_to_json(d)) for name, d in t.distributions.items()},
-         "intermediate_values": {str(step): v for step, v in t.intermediate_values.items()},
-         "hyperparams": t.user_attrs.get("hyperparams")}
-        for t in study.get_trials(deepcopy=False, states=FINISHED)]}
-
-
-def import_trials(study: optuna.Study, exported: dict[str, Any]) -> int:
-    """Add the ``exported`` trials (:func:`exported_trials`) the study lacks (by :func:`origin`, so
-    that a second import adds nothing); returns how many."""
-    if exported["study"] != study.study_name:
-        raise ValueError(f"the trials are study {exported['study']!r}'s, not {study.study_name!r}'s")
-    present = {origin(study.study_name, t) for t in study.get_trials(deepcopy=False)}
-    added = 0
-    for record in exported["trials"]:
-        if record["origin"] in present:
-            continue
-        study.add_trial(create_trial(
-            state=TrialState[record["state"]], value=record["value"], params=record["params"],
-            distributions={name: json_to_distribution(json.dumps(d)) for name, d in record["distributions"].items()},
-            intermediate_values={int(step): v for step, v in record["intermediate_values"].items()},
-            user_attrs={"hyperparams": record["hyperparams"], "imported": record["origin"]}))
-        added += 1
-    return added
-
-
-def read_export(path: Path, study_name: str) -> dict[str, Any]:
-    """The trials of ``study_name`` an ``--import`` file holds, or a :class:`cli.UsageError`
-    naming what is wrong with it."""
-    try:
-        exported = json.loads(path.read_text())
-    except (OSError, ValueError) as err:
-        raise cli.UsageError(f"--import {path}: {getattr(err, 'strerror', None) or err}") from err
-    if not isinstance(exported, dict) or not isinstance(exported.get("trials"), list):
-        raise cli.UsageError(f"--import {path}: not a file --export wrote")
-    if exported.get("study") != study_name:
-        raise cli.UsageError(f"--import {path} holds study {exported.get('study')!r}, not {study_name!r}")
-    return exported
-
-
 def export(storage: str, study_name: str, path: Path) -> int:
     """``--export``: the study's finished trials into ``path``; returns how many."""
     file = grid.sqlite_file(grid.storage_url(storage))
@@ -248,28 +193,28 @@ def export(storage: str, study_name: str, path: Path) -> int:
         study = optuna.load_study(study_name=study_name, storage=grid.open_storage(storage, 60, 300, create=False))
     except KeyError as err:
         raise cli.UsageError(f"--export: no study {study_name!r} in {storage}") from err
-    exported = exported_trials(study)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(exported, indent=1) + "\n")
-    return len(exported["trials"])
+    trials = kept.kept_trials(study)
+    kept.write(path, trials)
+    return len(trials["trials"])
 
 
 def tune(algo: str, env_id: str, storage: str, study_name: str, trials: int, settings: dict[str, Any],
          runs_dir: Path, pruner: optuna.pruners.BasePruner | None = None,
          imported: dict[str, Any] | None = None) -> optuna.Study:
     """Run trials until the study has ``trials`` finished ones (over all workers), after adding the
-    ``imported`` ones (:func:`import_trials`) it lacks."""
+    ``imported`` ones (:func:`agents.kept.add_trials`) it lacks."""
     rdb = grid.open_storage(storage, heartbeat=60, grace=300)
     study = optuna.create_study(storage=rdb, study_name=study_name,
                                 direction="maximize", load_if_exists=True,
                                 pruner=pruner or optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1))
     if imported is not None:
-        print(f"imported {import_trials(study, imported)} finished trials", flush=True)
+        print(f"imported {kept.add_trials(study, imported)} finished trials", flush=True)
     # Seeded by the trials already stored: a sampler seeded alike in every session drew the same
     # first configurations again after each resume (trials 3 and 4 repeated 0 and 1).
     study.sampler = optuna.samplers.TPESampler(seed=settings["seed"] + len(study.trials), n_startup_trials=5)
     retry = rdb.get_heartbeat_stale_trial_callback()
-    study.optimize(objective(algo, env_id, settings, runs_dir, retry), callbacks=[MaxTrialsCallback(trials, FINISHED)],
+    study.optimize(objective(algo, env_id, settings, runs_dir, retry),
+                   callbacks=[MaxTrialsCallback(trials, kept.FINISHED)],
                    catch=(ValueError,))
     return study
 
@@ -291,9 +236,9 @@ def main(argv: list[str] | None = None) -> int:
                              "the correction's size")
     parser.add_argument("--study", help="study name (default: tune-<algo>-<env>, tune-<algo>-residual-<base>-<env>)")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/tuning"), help="where trials keep their files")
-    kept = parser.add_mutually_exclusive_group()
-    kept.add_argument("--export", type=Path, metavar="FILE", help="write the study's finished trials as JSON and stop")
-    kept.add_argument("--import", dest="import_file", type=Path, metavar="FILE",
+    files = parser.add_mutually_exclusive_group()
+    files.add_argument("--export", type=Path, metavar="FILE", help="write the study's finished trials as JSON and stop")
+    files.add_argument("--import", dest="import_file", type=Path, metavar="FILE",
                       help="first add the finished trials of FILE (written by --export) the study lacks")
     try:
         args = parser.parse_args(argv)
@@ -304,7 +249,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{export(args.storage, study_name, args.export)} finished trials of {study_name} -> {args.export}")
             return 0
         cli.check_writable_dir(args.runs_dir, "--runs-dir")
-        imported = read_export(args.import_file, study_name) if args.import_file else None
+        imported = kept.read(args.import_file, study_name, "--import") if args.import_file else None
     except cli.UsageError as err:
         return cli.fail(err)
     timesteps = args.timesteps or int(load_hyperparams(args.algo, args.env)["n_timesteps"])

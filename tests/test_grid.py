@@ -247,6 +247,10 @@ def _snapshot(folder: Path) -> list[str]:
     (["status", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),
     (["run", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),
     (["run", "--storage", "sqlite:///plain.md/grid.db"], "plain.md is not a directory"),
+    (["export"], "export needs --file"),
+    (["import", "--file", "missing.json"], "--file missing.json: No such file or directory"),
+    (["import", "--file", "plain.md"], "--file plain.md: Expecting value"),
+    (["export", "--file", "plain.md/grid.json"], "plain.md is not a directory"),
 ])
 def test_refused_arguments_are_one_line_and_write_nothing(argv: list[str], message: str, tmp_path: Path,
                                                           monkeypatch: pytest.MonkeyPatch,
@@ -271,6 +275,31 @@ def test_a_study_that_does_not_exist_says_how_to_make_it(tmp_path: Path, monkeyp
     err = capsys.readouterr().err.strip()
     assert "--study planar: no such grid in the storage (it has ['other'])" in err
     assert "python -m agents.grid run --study planar creates it" in err and "\n" not in err
+
+
+def test_a_kept_grid_is_a_new_grid_elsewhere_and_runs_on(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    """A fresh checkout has no runs/: the grid's finished cells, exported with the code, become a
+    new grid in another storage; its missing cells are queued and run, the imported ones never."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["--envs", "LightSail-v0", "--algos", "ppo", "--seeds", "0", "--default-seeds", *TINY]
+    assert grid.main(["run", *argv, "--max-cells", "2"]) == 0
+    assert grid.main(["export", "--file", "kept/planar.json"]) == 0
+    elsewhere = f"sqlite:///{tmp_path}/elsewhere.db"
+    assert grid.main(["import", "--file", "kept/planar.json", "--storage", elsewhere]) == 0
+    assert "2 finished cells imported, 2 queued" in capsys.readouterr().out
+    assert grid.main(["import", "--file", "kept/planar.json", "--storage", elsewhere]) == 2  # not twice
+    assert "already has a grid 'planar'" in capsys.readouterr().err
+    assert grid.main(["status", "--storage", elsewhere]) == 0
+    assert "4 cells, 2 complete, 2 waiting" in capsys.readouterr().out
+    assert grid.main(["run", *argv, "--storage", elsewhere]) == 0
+    before = {t.user_attrs["cell"]: t for t in load(grid.DEFAULT_STORAGE).get_trials(states=(TrialState.COMPLETE,))}
+    after = load(elsewhere).get_trials()
+    assert len(after) == 4 and all(t.state == TrialState.COMPLETE for t in after)
+    for trial in after[:2]:  # the imported cells, as they were
+        assert trial.user_attrs["summary"] == before[trial.user_attrs["cell"]].user_attrs["summary"]
+        assert trial.params == before[trial.user_attrs["cell"]].params
+    assert grid.main(["render", "--storage", elsewhere]) == 0 and "| lqr |" in capsys.readouterr().out
 
 
 # ---------------------------------------------------------------------- a cell taken from a live worker

@@ -12,7 +12,7 @@ import pytest
 import yaml
 from optuna.trial import TrialState
 
-from agents import training, tuning
+from agents import kept, training, tuning
 
 SETTINGS = {"timesteps": 256, "eval_freq": 128, "eval_episodes": 2, "seed": 0}
 
@@ -160,9 +160,9 @@ def test_exported_trials_come_back_in_a_fresh_storage(tmp_path: Path) -> None:
     out = tmp_path / "kept/s.json"
     assert tuning.main(["--algo", "ppo", "--storage", f"sqlite:///{tmp_path}/a.db", "--study", "s",
                         "--export", str(out)]) == 0
-    exported = tuning.read_export(out, "s")
+    exported = kept.read(out, "s", "--import")
     fresh = optuna.create_study(storage=f"sqlite:///{tmp_path}/b.db", study_name="s", direction="maximize")
-    assert tuning.import_trials(fresh, exported) == 2 and tuning.import_trials(fresh, exported) == 0
+    assert kept.add_trials(fresh, exported) == 2 and kept.add_trials(fresh, exported) == 0
     old = optuna.load_study(study_name="s", storage=f"sqlite:///{tmp_path}/a.db").get_trials()
     new = fresh.get_trials()
     for before, after in zip(old, new):
@@ -172,9 +172,9 @@ def test_exported_trials_come_back_in_a_fresh_storage(tmp_path: Path) -> None:
     assert "success rate 80.0%" in tuning.best_yaml(fresh, "LightSail-v0")
     # Exported again from the fresh storage, each trial still comes once; a study's own trials
     # (numbered from 0 in every storage) are not mistaken for the kept ones.
-    assert tuning.import_trials(fresh, tuning.exported_trials(fresh)) == 0
+    assert kept.add_trials(fresh, kept.kept_trials(fresh)) == 0
     own = finished_study(f"sqlite:///{tmp_path}/c.db", "s")
-    assert tuning.import_trials(own, exported) == 2 and len(own.get_trials()) == 4
+    assert kept.add_trials(own, exported) == 2 and len(own.get_trials()) == 4
 
 
 def test_kept_trials_of_another_study_or_a_missing_one_are_refused(tmp_path: Path,
