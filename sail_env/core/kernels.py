@@ -141,10 +141,10 @@ def _physics(block: np.ndarray, count: int, work: np.ndarray, floats: np.ndarray
             model = block[0, b] if steps.shape[0] > 1 else 0
             for r in range(n):
                 for p in range(powers - 1, -1, -1):
-                    sum_ = 0.0
+                    dot = 0.0
                     for k in range(cols):
-                        sum_ += steps[model, p * n + r, k] * work[k, b]
-                    work[result + r, b] = sum_ if p == powers - 1 else sum_ + work[eps, b] * work[result + r, b]
+                        dot += steps[model, p * n + r, k] * work[k, b]
+                    work[result + r, b] = dot if p == powers - 1 else dot + work[eps, b] * work[result + r, b]
     for b in range(count):
         i, column = block[0, b], block[1, b]
         x0 = _fl(layout, _X, i)
@@ -293,10 +293,11 @@ def scratch(layout: np.ndarray, samples: int, envs: int) -> tuple[np.ndarray, np
     """The kernels' scratch for ``envs`` environments (the kernels allocate nothing,
     :data:`sail_env.jit.kernel`), blocks of B = min(``envs``, :data:`BLOCK`): ``block`` (2, B) their
     indices and noise steps; ``pad`` ((c + n + 3 + max(2 S, 1)) B,) ``work`` (:func:`_work`), then
-    the envelope's sums."""
+    the envelope's sums. Zeros: the shared plant step's Horner loop reads a row before its first
+    write (the value is then discarded, but never an uninitialised NaN)."""
     width = min(envs, BLOCK)
     rows = int(layout[Slot.COLUMNS]) + int(layout[Slot.STATES]) + 3
-    return np.empty((2, width), np.int64), np.empty((rows + max(2 * samples, 1)) * width)
+    return np.zeros((2, width), np.int64), np.zeros((rows + max(2 * samples, 1)) * width)
 
 
 @inlined
