@@ -159,6 +159,7 @@ class EpisodeCore:
         params = plant.params(factors)
         if not params.shared:
             state.params.put(index, params)
+            self._step_model = state.params.step  # per environment: put may replace a field
             if self.envelope_tables.shape[2] == state.params.envelope.shape[1]:
                 self.envelope_tables[index] = self._transposed(state.params.envelope[index])
             else:  # the tables were padded to a longer draw's
