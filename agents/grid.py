@@ -618,6 +618,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         parser.error(f"{args.command} needs --file")
     if args.command == "export":
         cli.check_writable_dir(args.file.parent, "--file")
+        if args.file.is_dir():
+            parser.error(f"--file {args.file} is a directory")
     return args
 
 
@@ -636,6 +638,8 @@ def main(argv: list[str] | None = None) -> int:
         if not set(args.algos) <= set(LEARNERS):  # absent otherwise, as "classical"
             settings["learners"] = sorted(ALGOS)
         trials = kept.read(args.file, args.study, "--file") if args.command == "import" else None
+        if trials is not None and not isinstance(trials.get("user_attrs", {}).get("settings"), dict):
+            raise cli.UsageError(f"--file {args.file}: no grid settings (a tuning study's export?)")
         storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command in ("run", "import"))
         if args.command == "import":
             added, waiting = import_grid(storage, args.study, trials)

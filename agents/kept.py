@@ -41,26 +41,24 @@ def kept_trials(study: optuna.Study) -> dict[str, Any]:
 
 
 def add_trials(study: optuna.Study, kept: dict[str, Any]) -> int:
-    """Add the ``kept`` trials (:func:`kept_trials`) the study lacks; returns how many."""
+    """Add the ``kept`` trials (as :func:`read` gives them) the study lacks; returns how many. One
+    process at a time: two importing into one study at once would each add every trial."""
     if kept["study"] != study.study_name:
         raise ValueError(f"the trials are study {kept['study']!r}'s, not {study.study_name!r}'s")
     present = {origin(study.study_name, t) for t in study.get_trials(deepcopy=False)}
     added = 0
-    for record in kept["trials"]:
-        if record["origin"] in present:
-            continue
-        study.add_trial(create_trial(
-            state=TrialState[record["state"]], value=record["value"], params=record["params"],
-            distributions={name: json_to_distribution(json.dumps(d)) for name, d in record["distributions"].items()},
-            intermediate_values={int(step): v for step, v in record["intermediate_values"].items()},
-            user_attrs={**record["user_attrs"], "imported": record["origin"]}))
-        added += 1
+    for trial in kept["trials"]:
+        if trial.user_attrs["imported"] not in present:
+            study.add_trial(trial)
+            present.add(trial.user_attrs["imported"])
+            added += 1
     return added
 
 
 def read(path: Path, study_name: str, flag: str) -> dict[str, Any]:
-    """The kept trials of ``study_name`` in ``path``, or a one-line :class:`cli.UsageError` naming
-    ``flag`` and what is wrong with the file."""
+    """The kept trials of ``study_name`` in ``path``, every one checked and made a trial (each
+    remembering its origin) before any storage is touched, or a one-line :class:`cli.UsageError`
+    naming ``flag`` and what is wrong with the file."""
     try:
         kept = json.loads(path.read_text())
     except (OSError, ValueError) as err:
@@ -69,7 +67,19 @@ def read(path: Path, study_name: str, flag: str) -> dict[str, Any]:
         raise cli.UsageError(f"{flag} {path}: not a file of kept trials (written by an export)")
     if kept.get("study") != study_name:
         raise cli.UsageError(f"{flag} {path} holds study {kept.get('study')!r}, not {study_name!r}")
-    return kept
+    trials = []
+    for number, record in enumerate(kept["trials"]):
+        try:
+            trials.append(create_trial(
+                state=TrialState[record["state"]], value=record["value"], params=record["params"],
+                distributions={name: json_to_distribution(json.dumps(d))
+                               for name, d in record["distributions"].items()},
+                intermediate_values={int(step): v for step, v in record["intermediate_values"].items()},
+                user_attrs={**record["user_attrs"], "imported": str(record["origin"])}))
+        except (KeyError, TypeError, ValueError, AttributeError) as err:
+            raise cli.UsageError(f"{flag} {path}: trial {number} is not a kept trial "
+                                 f"({type(err).__name__}: {err})") from err
+    return {**kept, "trials": trials}
 
 
 def write(path: Path, kept: dict[str, Any]) -> None:

@@ -11,8 +11,9 @@ with the code, where a fresh checkout finds them (``runs/`` is not versioned):
     python -m agents.tuning --algo sac --env LightSailRealistic-v0 --export benchmarks/results/tuning/tune-sac-LightSailRealistic-v0.json
     python -m agents.tuning --algo sac --env LightSailRealistic-v0 --import benchmarks/results/tuning/tune-sac-LightSailRealistic-v0.json
 
-``--export`` writes them and stops; ``--import`` adds those the storage lacks (:mod:`agents.kept`),
-then goes on with the search: the sampler and the pruner see them as the study's own.
+``--export`` writes them and stops; ``--import`` adds those the storage lacks (:mod:`agents.kept`)
+and stops (once, before the workers start: two imports at once would each add every trial); the
+search then goes on with the sampler and the pruner seeing them as the study's own.
 
 Each trial is a train.py run (``runs/tuning/<study>/trial-<N>``, numbered ``_2``, … if another
 study of that name, in another storage, left one there) whose evaluations report the
@@ -37,6 +38,7 @@ from typing import Any
 import optuna
 import yaml
 from optuna.study import MaxTrialsCallback
+from optuna.storages import RDBStorage
 from optuna.trial import FrozenTrial, TrialState
 
 from agents import cli, grid, kept, training
@@ -198,17 +200,18 @@ def export(storage: str, study_name: str, path: Path) -> int:
     return len(trials["trials"])
 
 
-def tune(algo: str, env_id: str, storage: str, study_name: str, trials: int, settings: dict[str, Any],
-         runs_dir: Path, pruner: optuna.pruners.BasePruner | None = None,
-         imported: dict[str, Any] | None = None) -> optuna.Study:
-    """Run trials until the study has ``trials`` finished ones (over all workers), after adding the
-    ``imported`` ones (:func:`agents.kept.add_trials`) it lacks."""
+def open_study(storage: str, study_name: str,
+               pruner: optuna.pruners.BasePruner | None = None) -> tuple[optuna.Study, RDBStorage]:
+    """The tuning study ``study_name`` (made on first use) and its storage."""
     rdb = grid.open_storage(storage, heartbeat=60, grace=300)
-    study = optuna.create_study(storage=rdb, study_name=study_name,
-                                direction="maximize", load_if_exists=True,
-                                pruner=pruner or optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1))
-    if imported is not None:
-        print(f"imported {kept.add_trials(study, imported)} finished trials", flush=True)
+    return optuna.create_study(storage=rdb, study_name=study_name, direction="maximize", load_if_exists=True,
+                               pruner=pruner or optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1)), rdb
+
+
+def tune(algo: str, env_id: str, storage: str, study_name: str, trials: int, settings: dict[str, Any],
+         runs_dir: Path, pruner: optuna.pruners.BasePruner | None = None) -> optuna.Study:
+    """Run trials until the study has ``trials`` finished ones (over all workers)."""
+    study, rdb = open_study(storage, study_name, pruner)
     # Seeded by the trials already stored: a sampler seeded alike in every session drew the same
     # first configurations again after each resume (trials 3 and 4 repeated 0 and 1).
     study.sampler = optuna.samplers.TPESampler(seed=settings["seed"] + len(study.trials), n_startup_trials=5)
@@ -239,17 +242,23 @@ def main(argv: list[str] | None = None) -> int:
     files = parser.add_mutually_exclusive_group()
     files.add_argument("--export", type=Path, metavar="FILE", help="write the study's finished trials as JSON and stop")
     files.add_argument("--import", dest="import_file", type=Path, metavar="FILE",
-                      help="first add the finished trials of FILE (written by --export) the study lacks")
+                      help="add the finished trials of FILE (written by --export) the study lacks and stop")
     try:
         args = parser.parse_args(argv)
         kind = f"{args.algo}-residual-{args.residual}" if args.residual else args.algo
         study_name = args.study or f"tune-{kind}-{args.env}"
         if args.export:
             cli.check_writable_dir(args.export.parent, "--export")
+            if args.export.is_dir():
+                raise cli.UsageError(f"--export {args.export} is a directory")
             print(f"{export(args.storage, study_name, args.export)} finished trials of {study_name} -> {args.export}")
             return 0
+        if args.import_file:
+            trials = kept.read(args.import_file, study_name, "--import")
+            added = kept.add_trials(open_study(args.storage, study_name)[0], trials)
+            print(f"{added} finished trials of {args.import_file} added to {study_name} ({args.storage})")
+            return 0
         cli.check_writable_dir(args.runs_dir, "--runs-dir")
-        imported = kept.read(args.import_file, study_name, "--import") if args.import_file else None
     except cli.UsageError as err:
         return cli.fail(err)
     timesteps = args.timesteps or int(load_hyperparams(args.algo, args.env)["n_timesteps"])
@@ -258,8 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     optuna.logging.set_verbosity(optuna.logging.INFO)
     training.stop_on_signals()
     try:
-        study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings, args.runs_dir / study_name,
-                     imported=imported)
+        study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings, args.runs_dir / study_name)
     except cli.UsageError as err:  # a storage that cannot be opened
         return cli.fail(err)
     except KeyboardInterrupt as stop:

@@ -350,3 +350,11 @@ def test_a_second_trial_of_a_running_cell_waits_for_its_lock(tmp_path: Path, cap
 def test_the_table_has_a_row_place_for_every_agent():
     """An agent missing from ROW_ORDER would be left out of the table without a word."""
     assert sorted(grid.ROW_ORDER) == sorted(grid.AGENTS)
+
+
+def test_a_file_without_grid_settings_is_refused_before_the_storage_is_made(tmp_path: Path,
+                                                                           capsys: pytest.CaptureFixture) -> None:
+    kept_study = tmp_path / "tuning.json"
+    kept_study.write_text('{"study": "planar", "user_attrs": {}, "trials": []}')
+    assert grid.main(["import", "--file", str(kept_study), "--storage", f"sqlite:///{tmp_path}/grid.db"]) == 2
+    assert "no grid settings" in capsys.readouterr().err and not (tmp_path / "grid.db").exists()

@@ -3,6 +3,7 @@ best trial is a YAML entry that train.py trains from."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 from pathlib import Path
@@ -172,7 +173,8 @@ def test_exported_trials_come_back_in_a_fresh_storage(tmp_path: Path) -> None:
     assert "success rate 80.0%" in tuning.best_yaml(fresh, "LightSail-v0")
     # Exported again from the fresh storage, each trial still comes once; a study's own trials
     # (numbered from 0 in every storage) are not mistaken for the kept ones.
-    assert kept.add_trials(fresh, kept.kept_trials(fresh)) == 0
+    kept.write(tmp_path / "again.json", kept.kept_trials(fresh))
+    assert kept.add_trials(fresh, kept.read(tmp_path / "again.json", "s", "--import")) == 0
     own = finished_study(f"sqlite:///{tmp_path}/c.db", "s")
     assert kept.add_trials(own, exported) == 2 and len(own.get_trials()) == 4
 
@@ -191,3 +193,22 @@ def test_kept_trials_of_another_study_or_a_missing_one_are_refused(tmp_path: Pat
     errors = capsys.readouterr().err.splitlines()
     assert len(errors) == 2 and "holds study 's', not 'other'" in errors[0] and "no study 'other'" in errors[1]
     assert not (tmp_path / "b.db").exists() and not (tmp_path / "runs").exists()
+
+
+def test_a_kept_file_is_checked_whole_before_the_storage_is_touched(tmp_path: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A damaged record is refused (one line, exit 2) before a study is made; a record listed
+    twice is added once."""
+    finished_study(f"sqlite:///{tmp_path}/a.db", "s")
+    good = kept.kept_trials(optuna.load_study(study_name="s", storage=f"sqlite:///{tmp_path}/a.db"))
+    damaged = tmp_path / "damaged.json"
+    damaged.write_text(json.dumps({**good, "trials": [good["trials"][0], {"origin": "s#9@?"}]}))
+    assert tuning.main(["--algo", "ppo", "--storage", f"sqlite:///{tmp_path}/b.db", "--study", "s",
+                        "--import", str(damaged)]) == 2
+    assert "trial 1 is not a kept trial (KeyError: 'state')" in capsys.readouterr().err
+    assert not (tmp_path / "b.db").exists()
+    twice = tmp_path / "twice.json"
+    twice.write_text(json.dumps({**good, "trials": good["trials"] + good["trials"]}))
+    assert tuning.main(["--algo", "ppo", "--storage", f"sqlite:///{tmp_path}/b.db", "--study", "s",
+                        "--import", str(twice)]) == 0
+    assert len(optuna.load_study(study_name="s", storage=f"sqlite:///{tmp_path}/b.db").get_trials()) == 2
