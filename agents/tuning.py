@@ -189,8 +189,8 @@ def best_yaml(study: optuna.Study, env_id: str) -> str:
 def export(storage: str, study_name: str, path: Path) -> int:
     """``--export``: the study's finished trials into ``path``; returns how many."""
     file = grid.sqlite_file(grid.storage_url(storage))
-    if file is not None and not file.is_file():
-        raise cli.UsageError(f"--export: no study {study_name!r}: {file} does not exist")
+    if file is not None and (not file.is_file() or file.stat().st_size == 0):  # opening one would make its schema
+        raise cli.UsageError(f"--export: no study {study_name!r}: {file} does not exist or is empty")
     try:
         study = optuna.load_study(study_name=study_name, storage=grid.open_storage(storage, 60, 300, create=False))
     except KeyError as err:

@@ -190,8 +190,12 @@ def test_kept_trials_of_another_study_or_a_missing_one_are_refused(tmp_path: Pat
     assert tuning.main(["--algo", "ppo", "--storage", fresh, "--study", "other", "--import", str(out),
                         "--runs-dir", str(tmp_path / "runs")]) == 2
     assert tuning.main(["--algo", "ppo", "--storage", fresh, "--study", "other", "--export", str(out)]) == 2
+    (tmp_path / "empty.db").touch()
+    assert tuning.main(["--algo", "ppo", "--storage", f"sqlite:///{tmp_path}/empty.db", "--study", "s",
+                        "--export", str(tmp_path / "e.json")]) == 2
     errors = capsys.readouterr().err.splitlines()
-    assert len(errors) == 2 and "holds study 's', not 'other'" in errors[0] and "no study 'other'" in errors[1]
+    assert len(errors) == 3 and "holds study 's', not 'other'" in errors[0] and "no study 'other'" in errors[1]
+    assert "does not exist or is empty" in errors[2] and (tmp_path / "empty.db").stat().st_size == 0
     assert not (tmp_path / "b.db").exists() and not (tmp_path / "runs").exists()
 
 
