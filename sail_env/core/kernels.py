@@ -39,6 +39,10 @@ from sail_env.jit import inlined, kernel
 from sail_env.core.reward import DIVERGENCE_PENALTY, log_ratio_of
 from sail_env.core.state import Slot
 
+# Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
+# a file whose code or constants its compiled functions take in changes, so that they compile again.
+# compiled in: sail_env/core/delay.py sail_env/core/reward.py sail_env/core/state.py sail_env/jit.py sail_env/physics/pointing.py sha256:06747711e4d3d64d
+
 OBSERVATION_LIMIT = 1e3
 #: Environments a step takes together through each stage (their scratch stays in the L1 cache).
 BLOCK = 32

@@ -21,6 +21,10 @@ import numpy as np
 from sail_env.jit import compiled, inlined
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
+# Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
+# a file whose code or constants its compiled functions take in changes, so that they compile again.
+# compiled in: sail_env/jit.py sail_env/physics/pointing.py sha256:d0d0cb3fbb6068aa
+
 #: Reward: log10 of (pointing / tolerance) is clipped to this range.
 LOG_RATIO_RANGE = (-2.0, 3.0)
 SUCCESS_BONUS = 1.0

@@ -39,6 +39,10 @@ from sail_env.physics.relativity import diffraction_scale
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
+# Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
+# a file whose code or constants its compiled functions take in changes, so that they compile again.
+# compiled in: sail_env/jit.py sail_env/physics/constants.py sha256:94063faffca43401
+
 #: Flights a :class:`DrawFlights` with diffraction integrates across the draws' range of ``F/m``.
 DRAW_NODES = 9
 #: Spacing [s] of the flight table's nodes (and the Runge–Kutta step beyond ``L0``). The flight
