@@ -35,6 +35,7 @@ from threadpoolctl import threadpool_limits
 
 from agents import zoo_syntax
 from agents.residual import residual_of
+from sail_env.physics.blas import blas_libraries
 from sail_env.provenance import package_versions
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "recurrent_ppo": RecurrentPPO, "sac": SAC, "td3": TD3}
@@ -229,9 +230,11 @@ def one_thread_per_process() -> None:
 
 
 def versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on."""
+    """Versions of Python and the packages a result depends on, and the BLAS kernels: training's
+    numbers change with OpenBLAS's kernel (docs/learners.md, "Reliability")."""
     packages = ("lightsail-gym", "stable-baselines3", "sb3-contrib", "torch", "gymnasium", "numpy", "scipy")
-    return package_versions(*packages)
+    blas = "; ".join(f"{lib.internal_api} {lib.version} {lib.architecture}" for lib in blas_libraries())
+    return {**package_versions(*packages), "blas": blas}
 
 
 # ---------------------------------------------------------------------- trained agents
