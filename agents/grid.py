@@ -392,6 +392,10 @@ def run_cell(cell: Cell, trial: optuna.Trial, run_dir: Path, settings: dict[str,
             if session["status"] != "finished":
                 raise KeyboardInterrupt(session["status"])
         record = training.read_run(run_dir)
+        # The learning curve as the trial's intermediate values: the export keeps it when runs/ is gone
+        # (benchmarks.learning_curves --grid draws it), and Optuna's dashboard plots it.
+        for steps, rate in training.selection_history(run_dir):
+            trial.report(rate, steps)
         result["timesteps"] = record["sessions"][-1]["timesteps"]
         result["wall_time_s"] = sum(s.get("wall_time_s", 0.0) for s in record["sessions"])
     result["summary"] = play(cell, run_dir)

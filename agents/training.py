@@ -482,6 +482,20 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
     return session
 
 
+def selection_history(run_dir: Path) -> list[tuple[int, float]]:
+    """A run's learning curve: (env steps, success rate on the selection episodes) at every
+    evaluation in its ``evaluations.npz``; empty if it has none (no evaluation, or an older run
+    that did not record successes)."""
+    log = Path(run_dir) / "evaluations.npz"
+    if not log.is_file():
+        return []
+    with np.load(log) as history:
+        if "successes" not in history:
+            return []
+        return [(int(steps), float(np.mean(successes)))
+                for steps, successes in zip(history["timesteps"], history["successes"])]
+
+
 def continue_history(evaluator: EvalCallback, log: Path, resumed_at: int) -> None:
     """Give a resumed run's EvalCallback the evaluations up to its checkpoint: it starts
     ``evaluations.npz`` afresh, and a resumed run's learning curve lost everything before the resume.

@@ -9,7 +9,16 @@ Each ``--runs LABEL=GLOB`` is one configuration: the runs its glob matches are i
 ``evaluations.npz`` (SB3's EvalCallback log, written by train.py) holds the success of every
 selection episode at every evaluation; the curve is the mean over seeds of each evaluation's
 success rate, the band its range over seeds. Evaluations are compared at the steps every seed
-reached, up to the first where their steps differ (a resumed run evaluates at shifted steps). With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
+reached, up to the first where their steps differ (a resumed run evaluates at shifted steps).
+
+With ``--grid FILE`` (a grid export, ``python -m agents.grid export``) the curves come from the grid's
+cells instead, whose trials keep every evaluation's success rate as Optuna intermediate values, so
+the figure can be drawn again in a checkout without the runs; each glob then matches cell names:
+
+    python -m benchmarks.learning_curves --env LightSailRealistic-v0 --grid benchmarks/results/grid/realistic.json \
+        --runs "SAC tuned=LightSailRealistic-v0-sac-tuned-*" --out sac.png
+
+With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
 classical agents' success rates on the report's episodes are drawn as horizontal lines (LQG and the
 ceiling: ``lqr-oracle``, ``lqg-oracle``; the adaptive ``lqg-mm`` and ``lqg-mm-offset`` where they were played), labelled with their episode count: the selection episodes
 are other episodes, so the lines are a reference level, not a paired comparison.
@@ -17,6 +26,7 @@ are other episodes, so the lines are a reference level, not a paired comparison.
 
 from __future__ import annotations
 
+import fnmatch
 import glob
 import json
 import sys
@@ -28,7 +38,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from agents import cli  # noqa: E402
+from agents import cli, training  # noqa: E402
 
 #: The report's agents drawn as reference lines, and their labels.
 REFERENCES = {"lqg": "LQG", "lqg-mm": "adaptive LQG (lqg-mm)", "lqg-mm-offset": "adaptive, offset-free (lqg-mm-offset)",
@@ -37,21 +47,37 @@ REFERENCES = {"lqg": "LQG", "lqg-mm": "adaptive LQG (lqg-mm)", "lqg-mm-offset": 
 REFERENCE_STYLES = ("--", ":", (0, (1, 4)), "-.", (0, (5, 1, 1, 1, 1, 1)))
 
 
-def curves(pattern: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """The evaluation steps every run of ``pattern`` reached, the success rates (seeds, steps), the runs."""
-    runs = sorted(p for p in glob.glob(pattern) if (Path(p) / "evaluations.npz").is_file())
-    if not runs:
-        raise cli.UsageError(f"--runs {pattern!r}: no run with an evaluations.npz")
-    logs = [np.load(Path(run) / "evaluations.npz") for run in runs]
-    common = min(len(log["timesteps"]) for log in logs)
-    steps = logs[0]["timesteps"][:common]
+def run_histories(pattern: str) -> dict[str, list[tuple[int, float]]]:
+    """The learning curve of each train.py run that ``pattern`` matches, by run folder."""
+    histories = {run: training.selection_history(Path(run)) for run in sorted(glob.glob(pattern))}
+    return {run: history for run, history in histories.items() if history}
+
+
+def cell_histories(grid_file: Path, pattern: str) -> dict[str, list[tuple[int, float]]]:
+    """The learning curve of each cell of a grid export (``agents.grid export``) whose name
+    ``pattern`` matches: its trial's intermediate values (a cell run again: its latest trial)."""
+    trials = json.loads(grid_file.read_text())["trials"]
+    latest = {trial["user_attrs"].get("cell", ""): trial for trial in trials}
+    return {cell: sorted((int(step), rate) for step, rate in trial["intermediate_values"].items())
+            for cell, trial in sorted(latest.items())
+            if fnmatch.fnmatchcase(cell, pattern) and trial["intermediate_values"]}
+
+
+def curves(histories: dict[str, list[tuple[int, float]]], pattern: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """The evaluation steps every run reached, the success rates (seeds, steps), the runs."""
+    if not histories:
+        raise cli.UsageError(f"--runs {pattern!r}: no run with a learning curve (an evaluations.npz with "
+                             "successes, or a grid cell with intermediate values)")
+    logs = [np.array(history).T for history in histories.values()]  # each: steps row, rates row
+    common = min(log.shape[1] for log in logs)
+    steps = logs[0][0, :common]
     for log in logs:  # a resumed run evaluates at shifted steps after its resume: stop there
-        same = log["timesteps"][:common] == steps
+        same = log[0, :common] == steps
         common = common if same.all() else int(np.argmin(same))
         steps = steps[:common]
     if not common:
         raise cli.UsageError(f"--runs {pattern!r}: the runs share no evaluation step")
-    return steps, np.stack([log["successes"][:common].mean(axis=1) for log in logs]), runs
+    return steps.astype(int), np.stack([log[1, :common] for log in logs]), list(histories)
 
 
 def reference_rates(report: Path, env_id: str) -> dict[str, tuple[float, int]]:
@@ -68,7 +94,10 @@ def main(argv: list[str] | None = None) -> int:
                         formatter_class=cli.HelpFormatter)
     parser.add_argument("--env", required=True, help="the task the runs trained on (the plot's title)")
     parser.add_argument("--runs", action="append", required=True, metavar="LABEL=GLOB",
-                        help="a configuration's runs, one per seed; repeat to compare")
+                        help="a configuration's runs, one per seed; repeat to compare (with --grid: "
+                             "a glob of the grid's cell names)")
+    parser.add_argument("--grid", type=Path, metavar="FILE",
+                        help="read the curves from a grid export (agents.grid export) instead of run folders")
     parser.add_argument("--report", type=Path,
                         help="an evaluate.py report.json or benchmarks.ceiling's JSON, for the reference lines")
     parser.add_argument("--out", type=Path, required=True, help="the PNG to write")
@@ -81,7 +110,8 @@ def main(argv: list[str] | None = None) -> int:
             label, sep, pattern = item.partition("=")
             if not sep or not label or not pattern:
                 raise cli.UsageError(f"--runs {item!r}: expected LABEL=GLOB")
-            configs.append((label, *curves(pattern)))
+            histories = cell_histories(args.grid, pattern) if args.grid is not None else run_histories(pattern)
+            configs.append((label, *curves(histories, pattern)))
         references = reference_rates(args.report, args.env) if args.report is not None else {}
         cli.check_writable_dir(args.out.parent, "--out")
     except (cli.UsageError, OSError, KeyError, json.JSONDecodeError) as err:

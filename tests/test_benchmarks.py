@@ -107,6 +107,29 @@ def test_learning_curves_average_the_seeds_and_draw_the_report_lines(tmp_path, c
     assert learning_curves.main(["--env", "LightSail-v0", "--runs", "no-equals-sign", "--out", str(out)]) == 2
 
 
+def test_learning_curves_from_a_grid_export_take_each_cells_latest_trial(tmp_path, capsys):
+    """With --grid the glob picks cells by name; a cell run twice (redo) counts once, by its latest
+    trial; a cell without intermediate values (no evaluations) or of another name is left out."""
+    from benchmarks import learning_curves
+
+    def trial(cell, curve):
+        return {"user_attrs": {"cell": cell}, "intermediate_values": {str(10_000 * (i + 1)): r for i, r in enumerate(curve)}}
+
+    export = tmp_path / "grid.json"
+    export.write_text(json.dumps({"study": "g", "user_attrs": {}, "trials": [
+        trial("T-sac-tuned-0", [0.0, 0.0]),  # replaced by its redo below
+        trial("T-sac-tuned-1", [0.4, 0.8]),
+        trial("T-sac-tuned-0", [0.2, 0.6, 0.8]),
+        trial("T-sac-tuned-2", []),
+        trial("T-ppo-tuned-0", [1.0, 1.0])]}))
+    out = tmp_path / "curve.png"
+    assert learning_curves.main(["--env", "T", "--grid", str(export), "--runs", "SAC=T-sac-tuned-*",
+                                 "--out", str(out)]) == 0
+    assert "SAC: 2 seeds to 20,000 steps; last evaluation 70.0 % (seeds 60, 80)" in capsys.readouterr().out
+    assert learning_curves.main(["--env", "T", "--grid", str(export), "--runs", "TD3=T-td3-*", "--out", str(out)]) == 2
+    assert "no run with a learning curve" in capsys.readouterr().err
+
+
 def test_every_reference_line_has_a_style():
     """zip() would drop a reference without one, silently (the fourth, lqg-oracle, once was)."""
     from benchmarks import learning_curves

@@ -23,7 +23,7 @@ import optuna
 import pytest
 from optuna.trial import TrialState
 
-from agents import grid
+from agents import grid, training
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ["--timesteps", "256", "--eval-freq", "128", "--eval-episodes", "2", "--save-freq", "128"]
@@ -54,6 +54,9 @@ def test_sqlite_grid_runs_resumes_and_renders(tmp_path: Path, monkeypatch: pytes
         summary = trial.user_attrs["summary"]
         assert summary["episodes"] == grid.EPISODES and trial.value == summary["success_rate"]
         assert {"stable-baselines3", "torch", "lightsail-gym"} <= set(trial.user_attrs["versions"])
+        if "run_dir" in trial.user_attrs and trial.params["agent"] == "ppo":  # its learning curve, kept
+            history = training.selection_history(Path(trial.user_attrs["run_dir"]))
+            assert len(history) >= 2 and sorted(trial.intermediate_values.items()) == history
 
     readme = tmp_path / "README.md"
     readme.write_text(f"before\n{grid.README_START}\nold\n{grid.README_END}\nafter\n")
