@@ -11,6 +11,12 @@ with the code, where a fresh checkout finds them (``runs/`` is not versioned):
     python -m agents.tuning --algo sac --env LightSailRealistic-v0 --export benchmarks/results/tuning/tune-sac-LightSailRealistic-v0.json
     python -m agents.tuning --algo sac --env LightSailRealistic-v0 --import benchmarks/results/tuning/tune-sac-LightSailRealistic-v0.json
 
+A configuration worth trying first (a neighbour task's best, say) is queued with ``--enqueue``: the
+next worker trains it as the study's next trial, and the sampler sees its score as any other's:
+
+    python -m agents.tuning --algo sac --env LightSail3DRealistic-v1 --enqueue train_freq=4 learning_rate=3.77e-5 \
+        batch_size=512 buffer_size=100000 learning_starts=100 gamma=0.995 tau=0.02 net_arch=medium activation_fn=tanh
+
 ``--export`` writes them and stops; ``--import`` adds those the storage lacks (:mod:`agents.kept`)
 and stops (once, before the workers start: two imports at once would each add every trial); the
 search then goes on with the sampler and the pruner seeing them as the study's own.
@@ -178,6 +184,37 @@ def retried_folder(trial: optuna.Trial, config: dict[str, Any]) -> tuple[Path | 
         return training.fresh_dir(Path(inherited)), None
 
 
+def configuration(algo: str, base: str | None, assignments: list[str]) -> dict[str, Any]:
+    """A trial's parameters from ``KEY=VALUE`` items, one for every parameter of the search space
+    (values read as YAML: ``4``, ``3.77e-5``, ``tanh``), checked whole against the space."""
+    params: dict[str, Any] = {}
+    for item in assignments:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise cli.UsageError(f"--enqueue {item!r}: expected KEY=VALUE")
+        params[key] = yaml.safe_load(value)
+    verbosity = optuna.logging.get_verbosity()
+    optuna.logging.set_verbosity(optuna.logging.WARNING)  # no "study created" line on stderr
+    try:
+        drawn = optuna.create_study().ask()  # in memory: one draw names every parameter of the space
+    finally:
+        optuna.logging.set_verbosity(verbosity)
+    SAMPLERS[algo](drawn), residual(drawn, base)
+    missing, unknown = sorted(set(drawn.params) - set(params)), sorted(set(params) - set(drawn.params))
+    if missing or unknown:
+        raise cli.UsageError(f"--enqueue: {algo}'s search space is {', '.join(sorted(drawn.params))}"
+                             + (f"; missing: {', '.join(missing)}" if missing else "")
+                             + (f"; not in it: {', '.join(unknown)}" if unknown else ""))
+    fixed = optuna.trial.FixedTrial(params)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)  # a value outside a float range: Optuna only warns
+        try:
+            SAMPLERS[algo](fixed), residual(fixed, base)
+        except (ValueError, UserWarning) as err:
+            raise cli.UsageError(f"--enqueue: {err}") from err
+    return params
+
+
 def best_yaml(study: optuna.Study, env_id: str) -> str:
     """The best trial as a Zoo-style YAML entry for ``train.py --config``."""
     best = study.best_trial
@@ -243,6 +280,9 @@ def main(argv: list[str] | None = None) -> int:
     files.add_argument("--export", type=Path, metavar="FILE", help="write the study's finished trials as JSON and stop")
     files.add_argument("--import", dest="import_file", type=Path, metavar="FILE",
                       help="add the finished trials of FILE (written by --export) the study lacks and stop")
+    files.add_argument("--enqueue", nargs="+", metavar="KEY=VALUE",
+                       help="queue one configuration (every parameter of the search space) as the study's "
+                            "next trial and stop")
     try:
         args = parser.parse_args(argv)
         kind = f"{args.algo}-residual-{args.residual}" if args.residual else args.algo
@@ -257,6 +297,11 @@ def main(argv: list[str] | None = None) -> int:
             trials = kept.read(args.import_file, study_name, "--import")
             added = kept.add_trials(open_study(args.storage, study_name)[0], trials)
             print(f"{added} finished trials of {args.import_file} added to {study_name} ({args.storage})")
+            return 0
+        if args.enqueue:
+            params = configuration(args.algo, args.residual, args.enqueue)  # checked before the storage opens
+            open_study(args.storage, study_name)[0].enqueue_trial(params)
+            print(f"queued in {study_name} ({args.storage}): {params}")
             return 0
         cli.check_writable_dir(args.runs_dir, "--runs-dir")
     except cli.UsageError as err:

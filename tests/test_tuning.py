@@ -53,6 +53,40 @@ def test_the_recurrent_search_space_trains(tmp_path: Path, monkeypatch: pytest.M
     assert policy.lstm_actor.hidden_size == 32 and policy.lstm_critic is None
 
 
+SAC_CONFIG = ["train_freq=4", "learning_rate=3.77e-5", "batch_size=512", "buffer_size=100000",
+              "learning_starts=100", "gamma=0.995", "tau=0.02", "net_arch=medium", "activation_fn=tanh"]
+
+
+def test_an_enqueued_configuration_is_the_next_trial(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    storage = f"sqlite:///{tmp_path}/grid.db"
+    assert tuning.main(["--algo", "sac", "--storage", storage, "--study", "q", "--enqueue", *SAC_CONFIG]) == 0
+    assert "queued in q" in capsys.readouterr().out
+    study = tuning.tune("sac", "LightSail-v0", storage, "q", 1, SETTINGS, tmp_path / "runs")
+    (trial,) = study.get_trials(states=(TrialState.COMPLETE,))
+    assert trial.params == {"train_freq": 4, "learning_rate": 3.77e-5, "batch_size": 512, "buffer_size": 100_000,
+                            "learning_starts": 100, "gamma": 0.995, "tau": 0.02, "net_arch": "medium",
+                            "activation_fn": "tanh"}
+    trained = training.read_run(Path(trial.user_attrs["run_dir"]))["config"]["hyperparams"]
+    assert trained["learning_rate"] == 3.77e-5 and trained["policy_kwargs"] == "dict(net_arch=[256, 256], activation_fn=nn.Tanh)"
+
+
+@pytest.mark.parametrize("change, message", [
+    (["tau=0.02"], "; missing: tau"),  # left out
+    (["batch_size=500"], "'500' not in (64, 128, 256, 512)"),
+    (["learning_rate=1.0"], "out of the range"),
+    (["tau=0.02", "momentum=0.9"], "; not in it: momentum"),
+    (["tau"], "'tau': expected KEY=VALUE"),
+])
+def test_a_configuration_outside_the_search_space_is_refused_before_the_storage_opens(
+        change: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    items = [item for item in SAC_CONFIG if item.split("=")[0] not in {c.split("=")[0] for c in change}]
+    items += [] if change == ["tau=0.02"] else change
+    assert tuning.main(["--algo", "sac", "--storage", f"sqlite:///{tmp_path}/grid.db", "--enqueue", *items]) == 2
+    errors = capsys.readouterr().err.splitlines()
+    assert len(errors) == 1 and message in errors[0]
+    assert not (tmp_path / "grid.db").exists()
+
+
 def test_a_residual_study_searches_the_correction_size_and_trains_residual_policies(tmp_path: Path) -> None:
     study = tuning.tune("ppo", "LightSail-v0", f"sqlite:///{tmp_path}/grid.db", "r", 1,
                         {**SETTINGS, "residual": "lqg"}, tmp_path / "runs")
