@@ -14,7 +14,7 @@ with the code, where a fresh checkout finds them (``runs/`` is not versioned):
 A configuration worth trying first (a neighbour task's best, say) is queued with ``--enqueue``: the
 next worker trains it as the study's next trial, and the sampler sees its score as any other's:
 
-    python -m agents.tuning --algo sac --env LightSail3DRealistic-v1 --enqueue train_freq=4 learning_rate=3.77e-5 \
+    python -m agents.tuning --algo sac --env LightSail3DRealistic-v1 --enqueue train_freq=4 learning_rate=3.77e-5 \\
         batch_size=512 buffer_size=100000 learning_starts=100 gamma=0.995 tau=0.02 net_arch=medium activation_fn=tanh
 
 ``--export`` writes them and stops; ``--import`` adds those the storage lacks (:mod:`agents.kept`)

@@ -1,8 +1,8 @@
 """Learning curves of train.py runs: selection success against env steps, over seeds.
 
-    python -m benchmarks.learning_curves --env LightSailRealistic-v0 \
-        --runs "PPO tuned=runs/tuned/ppo-realistic-v0-seed*" \
-        --runs "PPO tuned, frame_stack 4=runs/tuned/ppo-realistic-v0-fs4-seed*" \
+    python -m benchmarks.learning_curves --env LightSailRealistic-v0 \\
+        --runs "PPO tuned=runs/tuned/ppo-realistic-v0-seed*" \\
+        --runs "PPO tuned, frame_stack 4=runs/tuned/ppo-realistic-v0-fs4-seed*" \\
         --report benchmarks/results/learners_realistic_v0.json --out docs/images/learning-curve-realistic-v0.png
 
 Each ``--runs LABEL=GLOB`` is one configuration: the runs its glob matches are its seeds. A run's
@@ -15,7 +15,7 @@ With ``--grid FILE`` (a grid export, ``python -m agents.grid export``) the curve
 cells instead, whose trials keep every evaluation's success rate as Optuna intermediate values, so
 the figure can be drawn again in a checkout without the runs; each glob then matches cell names:
 
-    python -m benchmarks.learning_curves --env LightSailRealistic-v0 --grid benchmarks/results/grid/realistic.json \
+    python -m benchmarks.learning_curves --env LightSailRealistic-v0 --grid benchmarks/results/grid/realistic.json \\
         --runs "SAC tuned=LightSailRealistic-v0-sac-tuned-*" --out sac.png
 
 With ``--report`` (an ``evaluate.py`` report.json, or ``benchmarks.ceiling``'s JSON) the
