@@ -6,7 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks import coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed, uncertain_sizes
+import gymnasium as gym
+
+from benchmarks import coast_modal, coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed, uncertain_sizes
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -33,6 +35,61 @@ def test_the_flat_top_edge_costs_the_coast_its_accuracy_a_gaussian_does_not(caps
     flat_top = coast_vs_nonlinear.main(["--start", "599", "--rtol", "1e-7"])
     assert gaussian["relative_velocity_error"] < 5e-5
     assert flat_top["relative_velocity_error"] > 20 * gaussian["relative_velocity_error"]
+
+
+def test_a_modal_coast_piece_has_the_exact_moments_to_the_push_noises_own_feedback():
+    """benchmarks/coast_modal.py: a 5 s piece of the v1 coast in the drift's eigenbasis against the
+    45×45 moment exponential. The mean is exact (measured 1e-13 of the start limits); the covariance
+    leaves out the push noise acting on its own spread within the piece, 2–4 % (measured), which one
+    Richardson step takes to 1–5e-4. The beam jitter's part alone agrees with Van Loan's (1978)
+    additive covariance to round-off."""
+    from sail_env.analysis.jitter import propagate_covariance
+    from sail_env.physics.noise import mean_and_covariance, second_moment
+
+    env = gym.make("LightSail3DRealistic-v1")
+    env.reset(seed=100003)
+    plant, params = env.unwrapped.core.spec.plant, env.unwrapped.core.state.params
+    units = plant.start_limits()
+    x, u, middles = 0.01 * units[None], np.array([[1e-3, -2e-3, 1e-4, 0.0]]), np.array([300.0])
+    start = second_moment(x[0], np.zeros((8, 8)))
+
+    def exact_moments() -> tuple[np.ndarray, np.ndarray]:
+        (propagator,) = plant._piece_propagators(params, u, middles[None], np.array([5.0]))
+        return mean_and_covariance(propagator[0] @ start)
+
+    mean, cov = exact_moments()
+    drift, mult, additive = (m[0] for m in coast_modal.piece_matrices(plant, params, u, middles))
+    scale = np.sqrt(np.outer(np.diag(cov), np.diag(cov)))
+    errors = {}
+    for richardson in (False, True):
+        modal_mean, modal_cov = coast_modal.modal_piece(drift, mult, additive, plant.white_noise.push_psd_s, 5.0,
+                                                        x[0], richardson)
+        assert np.max(np.abs(modal_mean - mean) / units) < 1e-11
+        errors[richardson] = np.max(np.abs(modal_cov - cov) / scale)
+    assert 1e-2 < errors[False] < 0.1 and errors[True] < 1e-3
+    # The beam jitter alone against Van Loan's additive covariance (no second moment, so no mean whose
+    # square the small covariance is lost against).
+    _, jitter_cov = coast_modal.modal_piece(drift, mult, additive, 0.0, 5.0, x[0], False)
+    van_loan = propagate_covariance(np.zeros((8, 8)), drift[:8, :8], additive[:8, :8], 5.0)
+    jitter_scale = np.sqrt(np.outer(np.diag(van_loan), np.diag(van_loan)))
+    assert np.max(np.abs(jitter_cov - van_loan) / jitter_scale) < 1e-9
+
+
+@pytest.mark.parametrize("x", [1e-6 + 2e-7j, 9e-4j, 1.1e-3 - 2e-4j, 0.1 + 0.3j, -0.4j])
+def test_the_divided_difference_of_the_exponential_on_both_sides_of_its_series(x):
+    """``∫₀^h e^{ν(h−r)} e^{μr} dr = h e^{νh} Σ xᵏ/(k+1)!`` with ``x = (μ − ν) h``: 25 terms of the
+    series are exact to round-off for ``|x| ≤ 0.5``; the benchmark's form is a short series below
+    ``|x| = 1e-3`` and the quotient of exponentials above, whose phases ``|μ h|`` ~ 800 rad carry
+    ~2e-13 of round-off into the quotient; the series is good to ~1e-14."""
+    import cmath
+    import math
+
+    h, nu = 5.0, -2e-9 + 155.6j
+    mu = nu + x / h
+    x = (mu - nu) * h  # as represented (the subtraction is exact)
+    reference = h * cmath.exp(nu * h) * sum(x**k / math.factorial(k + 1) for k in range(25))
+    value = coast_modal._divided(nu, mu, cmath.exp(nu * h), cmath.exp(mu * h), h)
+    assert abs(value - reference) < (1e-13 if abs(x) < coast_modal.SERIES_BELOW else 1e-11) * abs(reference)
 
 
 def test_two_blas_kernels_play_the_same_episodes(tmp_path, capsys):
