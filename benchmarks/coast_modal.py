@@ -38,7 +38,9 @@ package's API) and reports:
   CPU time, and the propagators alone (today's batched generators and exponentials against the
   modal pieces), BLAS on one thread as in the plant's coast. The modal pieces are a plain Numba
   function (it uses the sums' symmetry in ``(j, l)``, not the eigenvalues' conjugate pairs); the
-  draws stay today's NumPy in both.
+  draws stay today's NumPy in both. A third workload, the whole modal coast compiled (pieces and
+  draws in one Numba call; the pieces' matrices still built by the plant's NumPy), says what a
+  compiled coast would cost.
 
 Episodes whose coast crosses a kink of the beam's widening (the plant splits those pieces) are left
 out of the whole-coast comparison and counted.
@@ -143,6 +145,29 @@ def modal_piece(drift, mult, additive, push_psd, h, start, richardson):
         cov = 2.0 * halves - cov
     n = size - 1
     return mean[:n].copy(), cov[:n, :n].copy()
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _draw(mean, cov, normals):
+    """:func:`~sail_env.physics.linear.sample_gaussian`'s draw, compiled, to time what a compiled coast
+    would cost (its eigensolver is Numba's LAPACK, not NumPy's: the same draw to round-off)."""
+    std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    safe = np.where(std > 0, std, 1.0)
+    corr = cov / np.outer(safe, safe)
+    values, vectors = np.linalg.eigh(0.5 * (corr + corr.T))
+    root = (vectors * np.sqrt(np.maximum(values, 0.0))) @ vectors.T
+    return mean + std * (root @ normals)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def compiled_coast(drift, mult, additive, push_psd, h, start, normals):
+    """A whole coast of modal pieces (with the Richardson step) and draws in one call: the end state.
+    The plant's divergence test after each piece is left out (a few comparisons)."""
+    x = start.copy()
+    for j in range(len(drift)):
+        mean, cov = modal_piece(drift[j], mult[j], additive[j], push_psd, h, x, True)
+        x = _draw(mean, cov, normals[j])
+    return x
 
 
 def piece_matrices(plant, p, u: np.ndarray, middles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -299,9 +324,15 @@ def main(argv: list[str] | None = None) -> None:
         for j in range(count):
             modal_piece(drift[j], mult[j], additive[j], push_psd, length, longest["x"][0], True)
 
+    def whole_coast_compiled() -> np.ndarray:
+        drift, mult, additive = piece_matrices(plant, longest["p"], longest["u"], middles)
+        return compiled_coast(drift, mult, additive, push_psd, length, longest["x"][0], longest["normals"][0, :count])
+
+    compiled_change = np.max(np.abs(whole_coast_compiled() / modal_coast(plant, longest) - 1))
     timed = {"exact_coast": lambda: plant.coast(longest["p"], longest["x"], longest["u"], longest["duration"],
                                                  longest["normals"], longest["start_s"]),
              "modal_coast": lambda: modal_coast(plant, longest),
+             "compiled_modal_coast": whole_coast_compiled,
              "exact_propagators": lambda: plant._piece_propagators(longest["p"], longest["u"], middles[None],
                                                                   np.array([length])),
              "modal_propagators": modal_propagators}
@@ -318,6 +349,8 @@ def main(argv: list[str] | None = None) -> None:
                "timed_coast_pieces": count,
                "cpu_ms": {k: 1e3 * v for k, v in cost.items()},
                "coast_ratio": cost["exact_coast"] / cost["modal_coast"],
+               "compiled_coast_ratio": cost["exact_coast"] / cost["compiled_modal_coast"],
+               "compiled_end_state_change": float(compiled_change),
                "propagator_ratio": cost["exact_propagators"] / cost["modal_propagators"]}
     print(json.dumps(summary, indent=1))
     args.out.parent.mkdir(parents=True, exist_ok=True)
