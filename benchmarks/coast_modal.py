@@ -65,7 +65,7 @@ from agents.evaluation import make_agent, run_episode
 from sail_env.core.reward import succeeded
 from sail_env.physics.blas import one_blas_thread
 from sail_env.physics.linear import sample_gaussian
-from sail_env.physics.noise import mean_and_covariance, second_moment
+from sail_env.physics.noise import mean_and_covariance, moment_matrices, second_moment
 from sail_env.provenance import machine
 
 RESULTS = Path(__file__).parent / "results"
@@ -182,26 +182,12 @@ def compiled_coast(drift, mult, additive, push_psd, h, start, normals):
 
 def piece_matrices(plant, p, u: np.ndarray, middles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The augmented drift, push-noise matrix and additive intensities (c, n+1, n+1) of one
-    environment's pieces held at ``middles`` (c,), as the plant's moment generator builds them."""
-    count, n = len(middles), plant.n_states
-    q = plant._coast_params(p.repeat(count), np.repeat(u, count, axis=0), middles)
-    a_push, b_push = plant._push_terms(q)
-    held = plant.with_bias(np.repeat(u, count, axis=0))
-    push_psd = plant.white_noise.push_psd_s
-    drift, mult, additive = (np.zeros((count, n + 1, n + 1)) for _ in range(3))
-    drift[:, :n, :n], drift[:, :n, n] = q.a, np.einsum("cij,cj->ci", q.b, held)
-    mult[:, :n, :n], mult[:, :n, n] = a_push, np.einsum("cij,cj->ci", b_push, held)
-    drift += 0.5 * push_psd * mult @ mult  # the Itô correction, as the generator's
-    if plant.jittered:
-        std = plant.jitter_std(q, middles)
-        psd = np.broadcast_to((std[:, 0] if np.ndim(std) else std) ** 2 * plant.dt, (count,))
-        for column in plant.jitter_inputs:
-            b = q.b[:, :, column]
-            additive[:, :n, :n] += psd[:, None, None] * b[:, :, None] * b[:, None, :]
-    impacts = plant._impact_psd(q, middles)
-    if impacts is not None:
-        additive[:, :n, :n] += impacts
-    return drift, mult, additive
+    environment's pieces held at ``middles`` (c,), from the same terms as the plant's moment generator."""
+    count = len(middles)
+    held = np.repeat(u, count, axis=0)
+    q = plant._coast_params(p.repeat(count), held, middles)
+    drift, mult, additive = moment_matrices(*plant._moment_terms(q, held, middles))
+    return drift, mult, np.broadcast_to(additive, drift.shape)
 
 
 def record_coasts(task: str, agents: list[str], episodes: int) -> tuple[object, list[dict]]:

@@ -265,14 +265,20 @@ class LinearPlant:
         """``(∂A/∂ln F, ∂B/∂ln F)`` of the draws ``p`` for the moment generator (None: the planar model's)."""
         return None
 
-    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held at flight time ``t`` (k,)
-        (:mod:`sail_env.physics.noise`): the push noise, each beam offset as white noise of
-        intensity ``σ² dt`` and the impacts of intensity rate × kick²."""
+    def _moment_terms(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> tuple:
+        """The arguments of :func:`~sail_env.physics.noise.moment_generator` (and of
+        :func:`~sail_env.physics.noise.moment_matrices`) for the models ``p`` with ``u`` held at flight
+        time ``t`` (k,): the push noise, each beam offset as white noise of intensity ``σ² dt`` and
+        the impacts of intensity rate × kick²."""
         std = self.jitter_std(p, t)
         psd = (std[:, 0] if np.ndim(std) else std) ** 2 * self.dt
-        return moment_generator(p.a, p.b, self.with_bias(u), self.white_noise, self._push_terms(p),
-                                self.jitter_inputs if self.jittered else (), psd, self._impact_psd(p, t))
+        return (p.a, p.b, self.with_bias(u), self.white_noise, self._push_terms(p),
+                self.jitter_inputs if self.jittered else (), psd, self._impact_psd(p, t))
+
+    def _moment_generator(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held at flight time ``t`` (k,)
+        (:meth:`_moment_terms`)."""
+        return moment_generator(*self._moment_terms(p, u, t))
 
     @property
     def jittered(self) -> bool:

@@ -100,13 +100,14 @@ def vec_moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise
     return coefficients.reshape(*coefficients.shape[:-2], size * size)
 
 
-def _generator_rows(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
-                    push: tuple[np.ndarray, np.ndarray] | None, jitter_inputs: tuple[int, ...],
-                    jitter_psd: np.ndarray | None, state_psd: np.ndarray | None, rows: np.ndarray,
-                    cols: np.ndarray) -> np.ndarray:
-    """``dM_ij/dt`` for the entries ``(rows, cols)`` (r,) as coefficients of ``M`` (..., r, n+1, n+1):
-    ``Σ_k Ã_ik M_kj + Σ_l Ã_jl M_il + S_F Σ_kl Ã_F,ik Ã_F,jl M_kl + (S_d b bᵀ + S_state)_ij M_nn`` (the rows
-    of the vec generator; arguments as :func:`vec_moment_generator`)."""
+def moment_matrices(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
+                    push: tuple[np.ndarray, np.ndarray] | None = None, jitter_inputs: tuple[int, ...] = (0,),
+                    jitter_psd: np.ndarray | None = None,
+                    state_psd: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The augmented state's equation ``dz = Ã z dt + Ã_F z dW_F + dW`` (arguments as
+    :func:`vec_moment_generator`): the Itô drift ``Ã`` (with ``½ S_F Ã_F²``) and the push noise's
+    ``Ã_F``, both (*batch, n+1, n+1), and the additive intensity ``E[dW dWᵀ]/dt`` ((…, n+1, n+1), batched
+    like ``b`` and ``jitter_psd``; zero in the constant's row and column)."""
     a_push, b_push = push_sensitivity(a, b) if push is None else push
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
     n = a.shape[-1]
@@ -116,23 +117,34 @@ def _generator_rows(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Whi
     mult = np.zeros((*batch, n + 1, n + 1))
     mult[..., :n, :n] = a_push
     mult[..., :n, n] = np.einsum("...ij,...j->...i", b_push, action)
-    drift = (drift + 0.5 * noise.push_psd_s * mult @ mult).reshape(-1, n + 1, n + 1)
-    mult = mult.reshape(-1, n + 1, n + 1)
+    drift = drift + 0.5 * noise.push_psd_s * mult @ mult
+    psd = noise.beam_jitter_psd_m2s if jitter_psd is None else np.asarray(jitter_psd)[..., None, None]
+    jitter_b = np.zeros((*b.shape[:-2], n + 1, b.shape[-1]))  # the constant row feels no jitter
+    jitter_b[..., :n, :] = b
+    additive = sum(psd * jitter_b[..., :, None, column] * jitter_b[..., None, :, column] for column in jitter_inputs)
+    if state_psd is not None:
+        padded = np.zeros((*np.shape(state_psd)[:-2], n + 1, n + 1))
+        padded[..., :n, :n] = state_psd
+        additive = additive + padded
+    return drift, mult, np.broadcast_to(additive, (*np.shape(additive)[:-2], n + 1, n + 1))
+
+
+def _generator_rows(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
+                    push: tuple[np.ndarray, np.ndarray] | None, jitter_inputs: tuple[int, ...],
+                    jitter_psd: np.ndarray | None, state_psd: np.ndarray | None, rows: np.ndarray,
+                    cols: np.ndarray) -> np.ndarray:
+    """``dM_ij/dt`` for the entries ``(rows, cols)`` (r,) as coefficients of ``M`` (..., r, n+1, n+1):
+    ``Σ_k Ã_ik M_kj + Σ_l Ã_jl M_il + S_F Σ_kl Ã_F,ik Ã_F,jl M_kl + (S_d b bᵀ + S_state)_ij M_nn`` (the rows
+    of the vec generator; arguments as :func:`vec_moment_generator`)."""
+    drift, mult, additive = moment_matrices(a, b, action, noise, push, jitter_inputs, jitter_psd, state_psd)
+    batch, n = drift.shape[:-2], a.shape[-1]
+    drift, mult = drift.reshape(-1, n + 1, n + 1), mult.reshape(-1, n + 1, n + 1)
     out = np.empty((len(drift), len(rows), n + 1, n + 1))  # C order: the entries of a row together
     np.multiply(noise.push_psd_s * mult[:, rows, :, None], mult[:, cols, None, :], out=out)
     entry = np.arange(len(rows))
     out[:, entry, :, cols] += np.swapaxes(drift[:, rows, :], 0, 1)  # Ã M: M_kj for row (i, j)
     out[:, entry, rows, :] += drift[:, cols, :]  # M Ãᵀ: M_il
-    psd = noise.beam_jitter_psd_m2s if jitter_psd is None else np.asarray(jitter_psd)[..., None]
-    jitter_b = np.zeros((*b.shape[:-2], n + 1, b.shape[-1]))  # the constant row feels no jitter
-    jitter_b[..., :n, :] = b
-    b_rows, b_cols = jitter_b[..., rows, :], jitter_b[..., cols, :]
-    jitter = sum(psd * b_rows[..., column] * b_cols[..., column] for column in jitter_inputs)
-    if state_psd is not None:
-        padded = np.zeros((*np.shape(state_psd)[:-2], n + 1, n + 1))
-        padded[..., :n, :n] = state_psd
-        jitter = jitter + padded[..., rows, cols]
-    out[:, :, n, n] += np.broadcast_to(jitter, (*batch, len(rows))).reshape(-1, len(rows))
+    out[:, :, n, n] += np.broadcast_to(additive[..., rows, cols], (*batch, len(rows))).reshape(-1, len(rows))
     return out.reshape(*batch, len(rows), n + 1, n + 1)
 
 
