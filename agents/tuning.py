@@ -199,7 +199,8 @@ def configuration(algo: str, base: str | None, assignments: list[str]) -> dict[s
         drawn = optuna.create_study().ask()  # in memory: one draw names every parameter of the space
     finally:
         optuna.logging.set_verbosity(verbosity)
-    SAMPLERS[algo](drawn), residual(drawn, base)
+    SAMPLERS[algo](drawn)
+    residual(drawn, base)
     missing, unknown = sorted(set(drawn.params) - set(params)), sorted(set(params) - set(drawn.params))
     if missing or unknown:
         raise cli.UsageError(f"--enqueue: {algo}'s search space is {', '.join(sorted(drawn.params))}"
@@ -209,7 +210,8 @@ def configuration(algo: str, base: str | None, assignments: list[str]) -> dict[s
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)  # a value outside a float range: Optuna only warns
         try:
-            SAMPLERS[algo](fixed), residual(fixed, base)
+            SAMPLERS[algo](fixed)
+            residual(fixed, base)
         except (ValueError, UserWarning) as err:
             raise cli.UsageError(f"--enqueue: {err}") from err
     return params
