@@ -8,7 +8,7 @@ import pytest
 
 import gymnasium as gym
 
-from benchmarks import coast_modal, coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed, uncertain_sizes
+from benchmarks import coast_interaction, coast_modal, coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed, uncertain_sizes
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -91,6 +91,54 @@ def test_the_divided_difference_of_the_exponential_on_both_sides_of_its_series(x
     value = coast_modal._divided(nu, mu, cmath.exp(nu * h), cmath.exp(mu * h), h)
     phase = 0.0 if abs(x) < coast_modal.SERIES_BELOW else 4 * np.finfo(float).eps * abs(mu * h) / abs(x)
     assert abs(value - reference) < (1e-13 + phase) * abs(reference)
+
+
+@pytest.mark.parametrize("delta", [0.0, 1e-4, 0.1 + 0.3j, 0.39j, 0.41, 2.0 - 5.0j, -0.02 + 155.0j])
+def test_the_interaction_pictures_moments_on_both_sides_of_its_series(delta):
+    """``∫_{−h/2}^{h/2} τⁿ e^{δτ} dτ`` (n ≤ 3) against adaptive quadrature, on both sides of the
+    series' bound ``|δ| h/2 = 1`` and at the fast mode's 155 rad/s."""
+    import scipy.integrate
+
+    half = 2.5
+    values = coast_interaction.moments(np.array([delta]), half, 3)[:, 0]
+    for n, value in enumerate(values):
+        parts = [scipy.integrate.quad(lambda t, part=part: part(t**n * np.exp(delta * t)), -half, half, limit=4000)[0]
+                 for part in (np.real, np.imag)]
+        reference = complex(*parts)
+        assert abs(value - reference) <= 1e-11 * abs(reference) + 1e-15
+
+
+def test_the_interaction_picture_step_with_its_secular_term_takes_long_pieces():
+    """An oscillator (30 rad/s) whose stiffness and push change by ±20 % over a minute, over 30 s
+    of 1 s pieces (30 turns of the phase each), against DOP853: the midpoint rule is off by the
+    state's own size, the interaction picture's first term by 7 %, with the eigenvalues' secular
+    second-order shift by 0.1 % (each a factor below the one before, so dropping the shift fails)."""
+    import math
+
+    import scipy.integrate
+    import scipy.linalg
+
+    kinematics = np.array([[0.0, 1.0, 0.0], [0.0, -0.01, 0.0], [0.0, 0.0, 0.0]])
+    stiffness = np.array([[0.0, 0.0, 0.0], [-900.0, 0.0, 50.0], [0.0, 0.0, 0.0]])
+
+    def sigma(t):
+        return 1.0 + 0.2 * np.sin(np.asarray(t) / 10.0)
+
+    def generator(t):
+        return kinematics + float(sigma(t)) * stiffness
+
+    start, span, h = np.array([1e-3, 0.0, 1.0]), 30.0, 1.0
+    exact = scipy.integrate.solve_ivp(lambda t, z: generator(t) @ z, (0.0, span), start, method="DOP853",
+                                      rtol=1e-12, atol=1e-16).y[:, -1]
+    midpoint, first, second = start.copy(), start.copy(), start.copy()
+    for i in range(math.ceil(span / h)):
+        middle = (i + 0.5) * h
+        change = coast_interaction.change_of(generator, middle, h)
+        midpoint = scipy.linalg.expm(h * generator(middle)) @ midpoint
+        first = coast_interaction.interaction_step(generator(middle), change, h, False) @ first
+        second = coast_interaction.interaction_step(generator(middle), change, h, True) @ second
+    errors = [np.linalg.norm((z - exact)[:2] / [1e-3, 3e-2]) for z in (midpoint, first, second)]
+    assert errors[0] > 1.0 and errors[1] < 0.1 * errors[0] and errors[2] < 0.03 * errors[1] and errors[2] < 2e-3
 
 
 @pytest.mark.parametrize("leak", [0.0, 1e-9])
