@@ -8,7 +8,7 @@ Over the coast the generator of the augmented state ``z = (s, 1)`` is ``G(t) = K
 kinematics, and the radiation's stiffness and push scaled by the Doppler power factor, ``σ`` its
 ratio to the window's; :mod:`benchmarks.coast_pieces`). The midpoint rule holds ``σ`` at each
 piece's middle; a fourth-order Magnus step in this frame diverges (a 1 s piece turns the fast mode
-by 155 rad). Here each piece ``[t_m − h/2, t_m + h/2]`` is split as
+by 110 rad). Here each piece ``[t_m − h/2, t_m + h/2]`` is split as
 
     Φ = e^{G_m h/2} U e^{G_m h/2},   U = T exp ∫ e^{−G_m τ} δσ(τ) R e^{G_m τ} dτ,   δσ = σ(t_m + τ) − σ(t_m),
 
@@ -25,9 +25,13 @@ part that does not average out over the fast phases, each mode's eigenvalue at s
 ``δσ``, ``δσ² Σ_k R̂_ik R̂_ki / (λᵢ − λₖ)`` (Rayleigh–Schrödinger perturbation theory, with left and
 right eigenvectors for a non-normal matrix; Kato 1995, *Perturbation Theory for Linear Operators*,
 Ch. II). "interaction2" adds it to the diagonal of ``Ω̂₁``, integrated as ``∫ δσ² dτ``, over the
-modes ``k`` that turn against ``i`` by more than a radian within half a piece (the near-degenerate
-pairs, 3–7e-3 rad/s apart, are left to ``Ω̂₁``, where their coupling barely turns). The rest of the
-second term oscillates and is left out.
+modes ``k`` that turn against ``i`` by more than a radian within half a piece. The near-degenerate
+pairs, 3–7e-3 rad/s apart, are left to ``Ω̂₁``: ``R`` couples them by nothing here (``R̂_ik R̂_ki``
+~ 1e-17). A model that coupled them would need the term on each slowly turning block,
+``½ Σ_k ∫ a_ik a_kj e^{(λⱼ−λᵢ)τ} dτ [1/(λᵢ−λₖ) + 1/(λⱼ−λₖ)]`` over the fast ``k`` (``a = V⁻¹ δG V``),
+not only on the diagonal. The rest of the second term oscillates and is left out; its next part,
+``(a_ki a′_ik − a_ik a′_ki)/ω²``, cancels when the change is one matrix times a scalar (``δG = δσ R``,
+the mean's model) but not for a general matrix polynomial (the covariance part's drift).
 
 Two measurements (``benchmarks/results/coast_interaction.json``; docs/physics.md §14):
 
