@@ -66,11 +66,8 @@ import scipy.integrate
 import scipy.linalg
 
 from benchmarks.coast_modal import modal_piece, piece_matrices, record_coasts
-from benchmarks.coast_pieces import U, X0
-from sail_env.physics.config import DEEP_DISH
+from benchmarks.coast_pieces import U, X0, coast_model
 from sail_env.physics.noise import mean_and_covariance, second_moment
-from sail_env.physics.rigid3d.config import RigidSailConfig
-from sail_env.physics.rigid3d.plant import RigidPlant, RigidTaskConfig
 
 RESULTS = Path(__file__).parent / "results"
 END_S = 600.0
@@ -109,16 +106,13 @@ class Coast:
     """The realistic sail's coast model: ``G(t) = K + σ(t) R`` (augmented, 9×9)."""
 
     def __init__(self) -> None:
-        sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
-        plant = RigidPlant(RigidTaskConfig(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0))
-        p = plant.params(np.ones((1, 3)))
+        plant, a_rad, b, self.window = coast_model()
         self.flight = plant.flight
-        self.window = float(plant.flight.power_factor(plant.config.window_middle_s))
         self.kinematics = np.zeros((9, 9))
         self.kinematics[:8, :8] = plant.kinematics
         self.radiation = np.zeros((9, 9))
-        self.radiation[:8, :8] = p.a[0] - plant.kinematics
-        self.radiation[:8, 8] = p.b[0] @ U
+        self.radiation[:8, :8] = a_rad
+        self.radiation[:8, 8] = b @ U
         self.scale = np.append(plant.start_limits(), 1.0)
 
     def sigma(self, t: np.ndarray | float) -> np.ndarray:

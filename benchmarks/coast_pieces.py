@@ -76,15 +76,20 @@ def propagate(plant, a_rad, b, window, piece: float, method: str) -> np.ndarray:
     return z[:8]
 
 
+def coast_model() -> tuple[RigidPlant, np.ndarray, np.ndarray, float]:
+    """The realistic sail of this benchmark (nominal draw), its radiation's part of ``A`` and its
+    ``B`` (held at the window's power factor), and that power factor."""
+    sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
+    plant = RigidPlant(RigidTaskConfig(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0))
+    p = plant.params(np.ones((1, 3)))
+    return plant, p.a[0] - plant.kinematics, p.b[0], float(plant.flight.power_factor(plant.config.window_middle_s))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=RESULTS / "coast_pieces.json")
     args = parser.parse_args()
-    sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
-    plant = RigidPlant(RigidTaskConfig(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0))
-    p = plant.params(np.ones((1, 3)))
-    a_rad, b = p.a[0] - plant.kinematics, p.b[0]
-    window = float(plant.flight.power_factor(plant.config.window_middle_s))
+    plant, a_rad, b, window = coast_model()
 
     def rhs(t: float, x: np.ndarray) -> np.ndarray:
         g = augmented(plant, a_rad, b, window, t)
