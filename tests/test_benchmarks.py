@@ -8,7 +8,7 @@ import pytest
 
 import gymnasium as gym
 
-from benchmarks import coast_interaction, coast_modal, coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed, uncertain_sizes
+from benchmarks import coast_draws, coast_interaction, coast_modal, coast_vs_nonlinear, cross_kernel, delay_absorption_3d, realistic_ablation, speed, uncertain_sizes
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -208,6 +208,42 @@ def test_the_interaction_picture_step_carries_second_moments_with_multiplicative
         mean_error = np.max(np.abs(m - mean) / spread)
         cov_error = np.max(np.abs(c - cov) / np.outer(spread, spread))
         assert mean_error < 4.2e-3 and cov_error < 3.6e-4, clustered
+
+
+def test_the_draws_benchmarks_today_is_the_plants_own_coast(monkeypatch):
+    """``coast_draws``' "today" (a draw after every piece) is the plant's ``coast`` with the same
+    normals, and its draw once at the end has the composed pieces' exact moments: the same end
+    states to 1e-6 (the coast magnifies a last-bit difference of a batched against a broadcast
+    product to ~1e-8; a wrong normal moves them by their spread), and a mean within four standard
+    errors."""
+    plant, coasts = coast_modal.record_coasts("LightSail3DRealistic-v1", ["passive"], 1)
+    coast = max(coasts, key=lambda c: float(c["duration"][0]))
+    samples, n = 4, plant.n_states
+    pieces = coast_modal.pieces_of(plant, coast)[0]
+    drawn = coast_draws.end_states(plant, coast, 1, 1, samples, np.random.default_rng(5))
+    rng = np.random.default_rng(5)
+    normals = np.stack([rng.standard_normal((samples, n)) for _ in range(pieces)], axis=1)
+    repeat = np.zeros(samples, dtype=int)
+    expected, diverged = plant.coast(coast["p"].repeat(samples), coast["x"][repeat], coast["u"][repeat],
+                                     coast["duration"][repeat], normals, coast["start_s"][repeat])
+    assert not diverged.any()
+    np.testing.assert_allclose(drawn, expected, rtol=1e-6, atol=0.0)
+
+    once = coast_draws.end_states(plant, coast, 1, 10**9, 4000, np.random.default_rng(6))
+    count, length, middles = coast_modal.pieces_of(plant, coast)
+    moment = coast_modal.second_moment(coast["x"], np.zeros((1, n, n)))
+    for propagator in plant._piece_propagators(coast["p"], coast["u"], middles[None], np.array([length])):
+        moment = (propagator @ moment[:, :, None])[:, :, 0]
+    mean, cov = coast_modal.mean_and_covariance(moment)
+    spread = np.sqrt(np.diag(cov[0]) / len(once))
+    assert np.all(np.abs(once.mean(axis=0) - mean[0]) < 4.0 * spread)
+
+    draws = []
+    monkeypatch.setattr(coast_draws, "sample_gaussian", lambda *args: draws.append(1) or coast_modal.sample_gaussian(*args))
+    for every, expected_draws in ((1, pieces), (10, -(-pieces // 10)), (10**9, 1)):
+        draws.clear()
+        coast_draws.end_states(plant, coast, 1, every, 2, np.random.default_rng(7))
+        assert len(draws) == expected_draws
 
 
 @pytest.mark.parametrize("leak", [0.0, 1e-9])
