@@ -43,7 +43,10 @@ package's API) and reports:
   function (it uses the sums' symmetry in ``(j, l)``, not the eigenvalues' conjugate pairs); the
   draws stay today's NumPy in both. A third workload, the whole modal coast compiled (pieces and
   draws in one Numba call; the pieces' matrices still built by the plant's NumPy), says what a
-  compiled coast would cost.
+  compiled coast would cost; a fourth, the same with each piece's eigenbasis interpolated
+  (:func:`interpolated_bases`: cubic splines through an eigensolve every 25 s) instead of solved,
+  what the per-piece eigensolve costs. Its errors are reported beside the others' (per piece and
+  whole coasts, kinks left out).
 
 Episodes whose coast crosses a kink of the beam's widening (the plant splits those pieces) are left
 out of the whole-coast comparison and counted.
@@ -53,12 +56,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
 from pathlib import Path
 
 import gymnasium as gym
 import numba
 import numpy as np
+import scipy.interpolate
 
 import sail_env  # noqa: F401
 from agents.evaluation import make_agent, run_episode
@@ -71,6 +76,8 @@ from sail_env.provenance import machine
 RESULTS = Path(__file__).parent / "results"
 #: Below this ``|μ − ν| h`` the divided difference is summed as a series (error < 1e-14).
 SERIES_BELOW = 1e-3
+#: Eigensolves along the coast every this many seconds, the pieces' eigenbases interpolated between.
+EIGEN_SPACING_S = 25.0
 #: Above this bound on the eigenvectors' condition number the drift counts as defective (the plant's is ~1e3).
 CONDITION_LIMIT = 1e8
 
@@ -142,6 +149,12 @@ def modal_piece(drift, mult, additive, push_psd, h, start, richardson):
     if np.abs(vec).max() * np.abs(inv).max() * len(lam) > CONDITION_LIMIT:
         # A defective drift (e.g. a free drift pushed by a constant force) has no eigenbasis.
         raise ValueError("the drift has no well-conditioned eigenbasis: the modal form does not apply")
+    return modal_piece_in_basis(lam, vec, inv, mult, additive, push_psd, h, start, richardson)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def modal_piece_in_basis(lam, vec, inv, mult, additive, push_psd, h, start, richardson):
+    """:func:`modal_piece` with the drift's eigenvalues, eigenvectors and their inverse given."""
     f_hat = inv @ mult.astype(np.complex128) @ vec
     q_hat = inv @ additive.astype(np.complex128) @ inv.T
     size = len(lam)
@@ -178,6 +191,35 @@ def compiled_coast(drift, mult, additive, push_psd, h, start, normals):
         mean, cov = modal_piece(drift[j], mult[j], additive[j], push_psd, h, x, True)
         x = _draw(mean, cov, normals[j])
     return x
+
+
+@numba.njit(cache=True, error_model="numpy")
+def compiled_coast_in_bases(lam, vec, inv, mult, additive, push_psd, h, start, normals):
+    """:func:`compiled_coast` with each piece's eigenbasis given (:func:`interpolated_bases`)."""
+    x = start.copy()
+    for j in range(len(lam)):
+        mean, cov = modal_piece_in_basis(lam[j], vec[j], inv[j], mult[j], additive[j], push_psd, h, x, True)
+        x = _draw(mean, cov, normals[j])
+    return x
+
+
+def interpolated_bases(plant, coast: dict, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each piece's drift eigenvalues, eigenvectors and their inverse (count, n+1[, n+1]) from cubic
+    splines through eigensolves every ~``spacing`` seconds of the coast (both ends included): the
+    modes keep their order (by frequency, then decay) and each eigenvector its phase, fixed on the
+    component that is largest at the coast's start, so that they vary smoothly between the nodes."""
+    count, length, middles = pieces_of(plant, coast)
+    start, end = float(coast["start_s"][0]), float(coast["start_s"][0] + coast["duration"][0])
+    nodes = np.linspace(start, end, max(4, math.ceil((end - start) / spacing) + 1))
+    lam, vec = np.linalg.eig(piece_matrices(plant, coast["p"], coast["u"], nodes)[0])
+    order = np.argsort(lam.imag + 1e-9 * lam.real, axis=1)
+    lam, vec = np.take_along_axis(lam, order, axis=1), np.take_along_axis(vec, order[:, None, :], axis=2)
+    anchor = np.argmax(np.abs(vec[0]), axis=0)
+    phase = vec[:, anchor, np.arange(vec.shape[2])]
+    vec = vec / (phase / np.abs(phase))[:, None, :]
+    lam_at = scipy.interpolate.CubicSpline(nodes, lam, axis=0)(middles)
+    vec_at = scipy.interpolate.CubicSpline(nodes, vec, axis=0)(middles)
+    return lam_at, vec_at, np.linalg.inv(vec_at)
 
 
 def piece_matrices(plant, p, u: np.ndarray, middles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -232,14 +274,19 @@ def exact_pieces(plant, coast: dict) -> tuple[list[tuple[np.ndarray, np.ndarray]
     return moments, x[0]
 
 
-def modal_coast(plant, coast: dict, richardson: bool = True) -> np.ndarray:
-    """The same coast with modal pieces and the same normals: the end state."""
+def modal_coast(plant, coast: dict, richardson: bool = True, interpolated: bool = False) -> np.ndarray:
+    """The same coast with modal pieces and the same normals (each piece's eigenbasis its own, or
+    :func:`interpolated_bases`): the end state."""
     count, length, middles = pieces_of(plant, coast)
     drift, mult, additive = piece_matrices(plant, coast["p"], coast["u"], middles)
+    bases = interpolated_bases(plant, coast, EIGEN_SPACING_S) if interpolated else None
     x = coast["x"][0]
     push_psd = plant.white_noise.push_psd_s
     for j in range(count):
-        mean, cov = modal_piece(drift[j], mult[j], additive[j], push_psd, length, x, richardson)
+        if interpolated:
+            mean, cov = modal_piece_in_basis(*(b[j] for b in bases), mult[j], additive[j], push_psd, length, x, richardson)
+        else:
+            mean, cov = modal_piece(drift[j], mult[j], additive[j], push_psd, length, x, richardson)
         x = sample_gaussian(mean, cov, coast["normals"][0, j])
     return x
 
@@ -253,14 +300,19 @@ def split_pieces(plant, coast: dict) -> np.ndarray:
 
 
 def piece_errors(plant, coast: dict) -> dict[str, float]:
-    """The largest per-piece errors of the modal forms against the exact moments (pieces the plant
-    splits at a kink left out)."""
+    """The largest per-piece errors of the modal forms against the exact moments, with each piece's
+    own eigenbasis and with :func:`interpolated_bases` (pieces the plant splits at a kink left out,
+    and a coast with a kink not interpolated)."""
     _, length, middles = pieces_of(plant, coast)
     drift, mult, additive = piece_matrices(plant, coast["p"], coast["u"], middles)
     moments, _ = exact_pieces(plant, coast)
     units, push_psd = plant.start_limits(), plant.white_noise.push_psd_s
-    worst = {"mean": 0.0, "cov_one_piece": 0.0, "cov_richardson": 0.0}
     split = split_pieces(plant, coast)
+    # The splines would cross the model's jump at a kink: such a coast's bases are not interpolated.
+    bases = None if split.any() else interpolated_bases(plant, coast, EIGEN_SPACING_S)
+    worst = {"mean": 0.0, "cov_one_piece": 0.0, "cov_richardson": 0.0}
+    if bases is not None:
+        worst.update(mean_interpolated=0.0, cov_interpolated=0.0)
     for j, (start, mean, cov) in enumerate(moments):
         if split[j]:
             continue
@@ -269,6 +321,11 @@ def piece_errors(plant, coast: dict) -> dict[str, float]:
             m, c = modal_piece(drift[j], mult[j], additive[j], push_psd, length, start, richardson)
             worst[key] = max(worst[key], float(np.max(np.abs(c - cov) / scale)))
             worst["mean"] = max(worst["mean"], float(np.max(np.abs(m - mean) / units)))
+        if bases is None:
+            continue
+        m, c = modal_piece_in_basis(*(b[j] for b in bases), mult[j], additive[j], push_psd, length, start, True)
+        worst["cov_interpolated"] = max(worst["cov_interpolated"], float(np.max(np.abs(c - cov) / scale)))
+        worst["mean_interpolated"] = max(worst["mean_interpolated"], float(np.max(np.abs(m - mean) / units)))
     return worst
 
 
@@ -306,8 +363,11 @@ def main(argv: list[str] | None = None) -> None:
             _, exact_end = exact_pieces(plant, coast)
             exact = float(plant.pointing(coast["p"], exact_end[None], cutoff)[0])
             modal = float(plant.pointing(coast["p"], modal_coast(plant, coast)[None], cutoff)[0])
+            interpolated = float(plant.pointing(coast["p"], modal_coast(plant, coast, interpolated=True)[None], cutoff)[0])
             row.update(pointing_rad=exact, modal_pointing_rad=modal, pointing_change=abs(modal / exact - 1),
-                       success_changed=bool(succeeded(np.array(exact)) != succeeded(np.array(modal))))
+                       success_changed=bool(succeeded(np.array(exact)) != succeeded(np.array(modal))),
+                       interpolated_pointing_change=abs(interpolated / exact - 1),
+                       interpolated_success_changed=bool(succeeded(np.array(exact)) != succeeded(np.array(interpolated))))
         rows.append(row)
         print({k: (f"{v:.3g}" if isinstance(v, float) else v) for k, v in row.items()}, flush=True)
 
@@ -324,11 +384,19 @@ def main(argv: list[str] | None = None) -> None:
         drift, mult, additive = piece_matrices(plant, longest["p"], longest["u"], middles)
         return compiled_coast(drift, mult, additive, push_psd, length, longest["x"][0], longest["normals"][0, :count])
 
+    def whole_coast_compiled_interpolated() -> np.ndarray:
+        _, mult, additive = piece_matrices(plant, longest["p"], longest["u"], middles)
+        lam, vec, inv = interpolated_bases(plant, longest, EIGEN_SPACING_S)
+        return compiled_coast_in_bases(lam, vec, inv, mult, additive, push_psd, length, longest["x"][0],
+                                       longest["normals"][0, :count])
+
     compiled_change = np.max(np.abs(whole_coast_compiled() / modal_coast(plant, longest) - 1))
+    interpolated_change = np.max(np.abs(whole_coast_compiled_interpolated() / modal_coast(plant, longest, interpolated=True) - 1))
     timed = {"exact_coast": lambda: plant.coast(longest["p"], longest["x"], longest["u"], longest["duration"],
                                                  longest["normals"], longest["start_s"]),
              "modal_coast": lambda: modal_coast(plant, longest),
              "compiled_modal_coast": whole_coast_compiled,
+             "compiled_modal_coast_interpolated": whole_coast_compiled_interpolated,
              "exact_propagators": lambda: plant._piece_propagators(longest["p"], longest["u"], middles[None],
                                                                   np.array([length])),
              "modal_propagators": modal_propagators}
@@ -347,6 +415,14 @@ def main(argv: list[str] | None = None) -> None:
                "coast_ratio": cost["exact_coast"] / cost["modal_coast"],
                "compiled_coast_ratio": cost["exact_coast"] / cost["compiled_modal_coast"],
                "compiled_end_state_change": float(compiled_change),
+               "largest_mean_error_interpolated": max(r["mean_interpolated"] for r in whole),
+               "largest_cov_error_interpolated": max(r["cov_interpolated"] for r in whole),
+               "median_pointing_change_interpolated": float(np.median([r["interpolated_pointing_change"] for r in whole]))
+               if whole else None,
+               "largest_pointing_change_interpolated": max((r["interpolated_pointing_change"] for r in whole), default=None),
+               "successes_changed_interpolated": sum(r["interpolated_success_changed"] for r in whole),
+               "compiled_interpolated_coast_ratio": cost["exact_coast"] / cost["compiled_modal_coast_interpolated"],
+               "compiled_interpolated_end_state_change": float(interpolated_change),
                "propagator_ratio": cost["exact_propagators"] / cost["modal_propagators"]}
     print(json.dumps(summary, indent=1))
     args.out.parent.mkdir(parents=True, exist_ok=True)
