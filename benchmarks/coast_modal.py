@@ -207,7 +207,10 @@ def interpolated_bases(plant, coast: dict, spacing: float) -> tuple[np.ndarray, 
     """Each piece's drift eigenvalues, eigenvectors and their inverse (count, n+1[, n+1]) from cubic
     splines through eigensolves every ~``spacing`` seconds of the coast (both ends included): the
     modes keep their order (by frequency, then decay) and each eigenvector its phase, fixed on the
-    component that is largest at the coast's start, so that they vary smoothly between the nodes."""
+    component that is largest at the coast's start, so that they vary smoothly between the nodes. A
+    coast across a kink of the spot's widening is refused: the model jumps there."""
+    if split_pieces(plant, coast).any():
+        raise ValueError("the coast crosses a kink of the spot's widening: its eigenbases jump there")
     count, length, middles = pieces_of(plant, coast)
     start, end = float(coast["start_s"][0]), float(coast["start_s"][0] + coast["duration"][0])
     nodes = np.linspace(start, end, max(4, math.ceil((end - start) / spacing) + 1))
@@ -308,7 +311,6 @@ def piece_errors(plant, coast: dict) -> dict[str, float]:
     moments, _ = exact_pieces(plant, coast)
     units, push_psd = plant.start_limits(), plant.white_noise.push_psd_s
     split = split_pieces(plant, coast)
-    # The splines would cross the model's jump at a kink: such a coast's bases are not interpolated.
     bases = None if split.any() else interpolated_bases(plant, coast, EIGEN_SPACING_S)
     worst = {"mean": 0.0, "cov_one_piece": 0.0, "cov_richardson": 0.0}
     if bases is not None:

@@ -246,6 +246,28 @@ def test_the_draws_benchmarks_today_is_the_plants_own_coast(monkeypatch):
         assert len(draws) == expected_draws
 
 
+def test_interpolated_eigenbases_rebuild_each_pieces_drift():
+    """``coast_modal.interpolated_bases`` on LQG's coast to cut-off: every piece's ``V Λ V⁻¹`` from the
+    splines is its own drift to 1e-8 of the drift's size (2.8e-9; a spline across a phase the
+    eigensolver flipped, or modes taken in another order, would be off by the drift's size), and
+    worse with half the eigensolves (4.4e-8); a coast across the spot's kink (passive, seed 100000)
+    is refused, where the splines would be off by 1 %."""
+    plant, coasts = coast_modal.record_coasts("LightSail3DRealistic-v1", ["passive", "lqg"], 2)
+    kinked, coast = (max((c for c in coasts if c["agent"] == agent), key=lambda c: float(c["duration"][0]))
+                     for agent in ("passive", "lqg"))
+    _, _, middles = coast_modal.pieces_of(plant, coast)
+    drift = coast_modal.piece_matrices(plant, coast["p"], coast["u"], middles)[0]
+    errors = []
+    for spacing in (25.0, 50.0):
+        lam, vec, inv = coast_modal.interpolated_bases(plant, coast, spacing)
+        rebuilt = np.einsum("cij,cj,cjk->cik", vec, lam, inv)
+        errors.append(np.max(np.abs(rebuilt - drift)) / np.max(np.abs(drift)))
+    assert errors[0] < 1e-8 and errors[1] > 4.0 * errors[0]
+    assert coast_modal.split_pieces(plant, kinked).any()
+    with pytest.raises(ValueError, match="kink"):
+        coast_modal.interpolated_bases(plant, kinked, 25.0)
+
+
 @pytest.mark.parametrize("leak", [0.0, 1e-9])
 def test_a_defective_drift_is_refused_by_the_modal_piece(leak):
     """A free mass pushed by a constant force: the augmented drift is a Jordan block, with no
