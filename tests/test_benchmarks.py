@@ -108,6 +108,20 @@ def test_the_interaction_pictures_moments_on_both_sides_of_its_series(delta):
         assert abs(value - reference) <= 1e-11 * abs(reference) + 1e-15
 
 
+def _two_oscillators() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Two lightly damped oscillators 0.005 rad/s apart near 30 rad/s, with the augmented state's
+    constant (5×5): their kinematics, their stiffness and push (what a changing power scales) and a
+    coupling between them."""
+    kinematics = np.zeros((5, 5))
+    kinematics[0, 1] = kinematics[2, 3] = 1.0
+    kinematics[1, 1] = kinematics[3, 3] = -0.01
+    stiffness = np.zeros((5, 5))
+    stiffness[1, 0], stiffness[3, 2], stiffness[1, 4], stiffness[3, 4] = -900.0, -900.3, 50.0, 20.0
+    coupling = np.zeros((5, 5))
+    coupling[1, 2] = coupling[3, 0] = 1.0
+    return kinematics, stiffness, coupling
+
+
 def test_the_interaction_picture_step_with_its_secular_term_takes_long_pieces():
     """Two oscillators 0.005 rad/s apart (30 rad/s), whose stiffness and push change by ±20 % and
     whose coupling swings by ±3 /s² over a minute, over 30 s of 1 s pieces (30 turns of the phase
@@ -120,13 +134,7 @@ def test_the_interaction_picture_step_with_its_secular_term_takes_long_pieces():
     import scipy.integrate
     import scipy.linalg
 
-    kinematics = np.zeros((5, 5))
-    kinematics[0, 1] = kinematics[2, 3] = 1.0
-    kinematics[1, 1] = kinematics[3, 3] = -0.01
-    stiffness = np.zeros((5, 5))
-    stiffness[1, 0], stiffness[3, 2], stiffness[1, 4], stiffness[3, 4] = -900.0, -900.3, 50.0, 20.0
-    coupling = np.zeros((5, 5))
-    coupling[1, 2] = coupling[3, 0] = 1.0
+    kinematics, stiffness, coupling = _two_oscillators()
 
     def generator(t):
         return kinematics + (1.0 + 0.2 * math.sin(t / 10.0)) * stiffness + 3.0 * math.sin(t / 7.0) * coupling
@@ -161,13 +169,7 @@ def test_the_interaction_picture_step_carries_second_moments_with_multiplicative
 
     import scipy.integrate
 
-    kinematics = np.zeros((5, 5))
-    kinematics[0, 1] = kinematics[2, 3] = 1.0
-    kinematics[1, 1] = kinematics[3, 3] = -0.01
-    stiffness = np.zeros((5, 5))
-    stiffness[1, 0], stiffness[3, 2], stiffness[1, 4], stiffness[3, 4] = -900.0, -900.3, 50.0, 20.0
-    coupling = np.zeros((5, 5))
-    coupling[1, 2] = coupling[3, 0] = 1.0
+    kinematics, stiffness, coupling = _two_oscillators()
     push_psd, ones = 1e-6, np.eye(5)
 
     def model(t):
