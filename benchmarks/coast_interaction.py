@@ -256,18 +256,17 @@ def mean_rows(start: float) -> tuple[float, list[dict]]:
 
 def covariance_rows(task: str) -> tuple[list[dict], dict]:
     """Long pieces with noise, on LQG's coast to cut-off in ``task`` (seed 100001): from the coast's start
-    point, at its start and its middle, the moments over 5, 20 and 50 s against the moment equation's
-    exponentials in 0.25 s pieces (0.5 s pieces give the reference's own error), for today's 5 s
-    pieces, the 45×45 exponential held at the piece's middle, and the candidate (the interaction
-    picture's mean, the modal covariance of :mod:`benchmarks.coast_modal` at the middle's model).
-    Errors: the mean in units of the reference's spread, the covariance ``max |ΔC_ij| / (σᵢ σⱼ)``."""
+    point, at its start and its middle, the moments over 5, 20 and 50 s against
+    :meth:`MomentEquation.reference` (the plant's exponentials composed in 0.25 s pieces a check of
+    it), for today's 5 s pieces, the 45×45 exponential held at the piece's middle, the first
+    candidate (the interaction picture's mean, the modal covariance of :mod:`benchmarks.coast_modal`
+    at the middle's model), the parts of the held model varied one by one, and the moment equation's
+    interaction steps; then :func:`whole_coast_rows`. Errors: the mean in units of the reference's
+    spread, the covariance ``max |ΔC_ij| / (σᵢ σⱼ)``."""
     plant, coasts = record_coasts(task, ["lqg"], 2)  # seed 100000's episode ends before cut-off
     coast = max(coasts, key=lambda c: float(c["duration"][0]))  # the coast to cut-off, not a reset's
     p, u, x = coast["p"], coast["u"], coast["x"]
     first, duration = float(coast["start_s"][0]), float(coast["duration"][0])
-
-    def drift(t: float) -> np.ndarray:
-        return piece_matrices(plant, p, u, np.array([t]))[0][0]
 
     def composed(begin: float, h: float, piece: float) -> tuple[np.ndarray, np.ndarray]:
         count = int(round(h / piece))
@@ -279,6 +278,10 @@ def covariance_rows(task: str) -> tuple[list[dict], dict]:
         return mean[0], cov[0]
 
     push_psd = plant.white_noise.push_psd_s
+    moments_of = MomentEquation(plant, p, u, x)
+
+    def drift(t: float) -> np.ndarray:
+        return moments_of.model(t)[0]
 
     def partly_held(begin: float, h: float, varying: tuple[str, ...], piece: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
         """The moments composed in ``piece`` s steps of the full (81×81) second-moment generator,
@@ -296,7 +299,6 @@ def covariance_rows(task: str) -> tuple[list[dict], dict]:
             moment = scipy.linalg.expm(piece * vec_generator(drift_j, mult_j, additive_j, push_psd)) @ moment
         return mean_and_covariance_of(moment)
 
-    moments_of = MomentEquation(plant, p, u, x)
     rows = []
     for offset in (0.0, 0.5 * duration):
         begin = first + offset
