@@ -21,8 +21,8 @@ Result (docs/physics.md §14; benchmarks/results/coast_pieces.json): the Magnus 
 while ``∫‖G‖ dt < π`` (Blanes et al. 2009), and a 1 s piece already turns this sail's fastest mode
 (110 rad/s after the window, 96 at cut-off; v1's: 156) by 110 rad. The commutator term
 ``(√3/12) h² [G₊, G₋] = (√3/12) h² (f₋ − f₊) [K, R]`` is then no small correction: the Magnus step
-is off by 2.9 % at 1 s pieces (the midpoint rule: 0.16 %), by 80–125 % at 2–5 s, and at 20 s its ``Ω/h`` has a real eigenvalue of 90 /s (the sail grows by e^1800 a piece;
-it has no growing mode). A higher-order step in the lab frame is no route to fewer pieces; a step
+is off by 2.9 % at 1 s pieces (the midpoint rule: 0.16 %), by 80–125 % at 2–5 s, and at 20 s its
+``Ω/h`` has a real eigenvalue of 90 /s (the sail grows by e^1800 a piece; it has no growing mode). A higher-order step in the lab frame is no route to fewer pieces; a step
 taken relative to the middle's exact exponential (an interaction picture, where what remains of the
 generator is small) or averaged over the fast phase is.
 """
