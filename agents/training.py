@@ -54,6 +54,7 @@ from agents.sb3 import (ALGOS, ON_POLICY, ModelLoadError, algo_kwargs, frame_sta
                         normalize_kwargs, normalizer_path, one_thread_per_process, policy_of, save_model, unstacked_shape,
                         versions)
 from agents.residual import ResidualVecEnv, residual_of
+from agents.shaping import PotentialShapingVecEnv, shaping_of
 from agents.vec_env import BatchedVecEnv
 from sail_env.tasks import TASKS
 
@@ -71,7 +72,9 @@ CONFIG_KEYS = frozenset({"algo", "env", "seed", "vec_env", "eval_freq", "eval_ep
 #: YAML keys that set up the run rather than the algorithm. ``frame_stack: k``: the policy sees the
 #: last k (normalised) observations side by side (VecFrameStack, as in RL Baselines3 Zoo). ``residual``
 #: and ``residual_scale``: the policy corrects a classical controller (agents/residual.py).
-RUN_KEYS = frozenset({"n_envs", "n_timesteps", "normalize", "policy", "frame_stack", "residual", "residual_scale"})
+#: ``reward_shaping``: the training env's reward, potential-shaped (agents/shaping.py).
+RUN_KEYS = frozenset({"n_envs", "n_timesteps", "normalize", "policy", "frame_stack", "residual", "residual_scale",
+                      "reward_shaping"})
 #: The least value of each whole-number hyperparameter. Below it SB3 fails late and far from the
 #: YAML (n_steps 0 divides by zero, batch_size -3 trips an assert, n_epochs 0 an unbound local
 #: after the first rollout). batch_size 2: PPO normalises advantages over a batch (a batch of one
@@ -160,6 +163,7 @@ def check_hyperparams(config: dict[str, Any]) -> None:
     try:
         normalized = normalize_kwargs(hp.get("normalize", False)) is not None
         residual_of(hp)
+        shaping_of(hp)
         algo_kwargs({k: v for k, v in hp.items() if k not in RUN_KEYS}, 1)
     except ValueError as err:
         raise ValueError(f"{where}: {err}") from err
@@ -226,9 +230,10 @@ def point_latest(run_dir: Path) -> None:
 
 def make_env(env_id: str, n_envs: int, seed: int, vec_env: str, normalize: dict[str, Any] | None,
              gamma: float, training: bool, frame_stack: int = 1, statistics: Path | None = None,
-             residual: tuple[str, float] | None = None) -> VecEnv:
+             residual: tuple[str, float] | None = None, shaping: str | None = None) -> VecEnv:
     """``n_envs`` seeded envs with episode statistics (success logged), maybe a residual policy's
-    (``(base, scale)``: :class:`~agents.residual.ResidualVecEnv`), maybe normalised (by the
+    (``(base, scale)``: :class:`~agents.residual.ResidualVecEnv`), maybe with a shaped reward
+    (``"potential"``: :class:`~agents.shaping.PotentialShapingVecEnv`), maybe normalised (by the
     VecNormalize ``statistics`` a checkpoint saved, when resuming), then with the last
     ``frame_stack`` normalised observations stacked (VecFrameStack; 1: none).
 
@@ -245,6 +250,8 @@ def make_env(env_id: str, n_envs: int, seed: int, vec_env: str, normalize: dict[
                             monitor_kwargs={"info_keywords": ("is_success",)})
     if residual is not None:
         venv = ResidualVecEnv(venv, *residual)
+    if shaping is not None:
+        venv = PotentialShapingVecEnv(venv, gamma)
     if normalize is not None and statistics is not None:
         venv = VecNormalize.load(str(statistics), venv)
     elif normalize is not None and not training:  # statistics are synced from the training env before each evaluation
@@ -417,11 +424,13 @@ def prepare(config: dict[str, Any], resume_dir: Path | None = None) -> Setup:
     # the checkpoint's normalisation statistics (under the frame stack, if there is one).
     statistics = normalizer_path(resume_from) if resume_from is not None and normalize is not None else None
     train_env = make_env(env_id, n_envs, seed + offset, config["vec_env"], normalize, gamma, training=True,
-                         frame_stack=frame_stack_of(hp), statistics=statistics, residual=residual_of(hp))
+                         frame_stack=frame_stack_of(hp), statistics=statistics, residual=residual_of(hp),
+                         shaping=shaping_of(hp))
     # Every selection episode in one batch, one per environment: a step of the evaluation is one
     # call of the vector env and one of the policy, and episode i is reset(seed=eval seed + i) alone.
     eval_env = make_env(env_id, config["eval_episodes"], seed + EVAL_SEED_OFFSET, "batched", normalize, gamma,
-                        training=False, frame_stack=frame_stack_of(hp), residual=residual_of(hp))
+                        training=False, frame_stack=frame_stack_of(hp), residual=residual_of(hp),
+                        shaping=shaping_of(hp))
     try:
         return Setup(build_model(config, train_env, resume_from), train_env, eval_env, resume_from)
     except BaseException:
