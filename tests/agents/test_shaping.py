@@ -33,7 +33,7 @@ def test_shaped_rewards_are_the_potential_differences_and_keep_the_discounted_re
     previous, returns, t, ended = np.zeros(2), np.zeros(2), 0, np.zeros(2, bool)
     while not ended.all():
         actions = rng.uniform(-0.3, 0.3, (2, 2)).astype(np.float32)
-        _, rewards, dones, infos = plain.step(actions)
+        _, _, dones, infos = plain.step(actions)
         _, shaped_rewards, shaped_dones, _ = shaped.step(actions)
         np.testing.assert_array_equal(dones, shaped_dones)
         for i in np.flatnonzero(~ended):
@@ -62,7 +62,7 @@ def test_the_potential_starts_at_zero_in_the_episode_after_an_autoreset():
     zero = np.zeros((1, 2), np.float32)
     for _ in range(shaped.window_steps):
         shaped.step(zero), plain.step(zero)
-    _, reward, done, info = plain.step(zero)
+    _, _, done, info = plain.step(zero)
     _, shaped_reward, _, _ = shaped.step(zero)
     assert not done[0]
     np.testing.assert_allclose(shaped_reward[0], GAMMA * _potential(info[0]), rtol=1e-5)
