@@ -74,10 +74,11 @@ def test_an_unknown_shaping_names_the_field(value):
         shaping_of({"reward_shaping": value})
 
 
-def test_a_shaped_run_trains_and_records_its_shaping(tmp_path: Path):
-    (tmp_path / "hp.yml").write_text("LightSail-v0:\n  n_timesteps: 64\n  n_steps: 32\n  batch_size: 32\n"
-                                     "  normalize: true\n  reward_shaping: potential\n")
-    assert train.main(["--algo", "ppo", "--env", "LightSail-v0", "--n-envs", "2", "--config", str(tmp_path / "hp.yml"),
-                       "--out", str(tmp_path / "run"), "--eval-freq", "32", "--eval-episodes", "2",
-                       "--no-progress-bar"]) == 0  # with selection: its env is wrapped alike (normalisation syncs)
+def test_the_shipped_shaping_settings_train_and_record_their_shaping(tmp_path: Path):
+    """agents/hyperparams/ppo_shaping.yml (docs/learners.md) runs as documented, with selection
+    episodes (their env is wrapped alike, or SB3 cannot sync the normalisation)."""
+    shipped = Path(__file__).parents[2] / "agents/hyperparams/ppo_shaping.yml"
+    assert train.main(["--algo", "ppo", "--env", "LightSail3DRealistic-v1", "--config", str(shipped),
+                       "--timesteps", "64", "--n-envs", "1", "--out", str(tmp_path / "run"), "--eval-freq", "64",
+                       "--eval-episodes", "2", "--no-progress-bar"]) == 0
     assert train.read_run(tmp_path / "run")["config"]["hyperparams"]["reward_shaping"] == "potential"
