@@ -1,8 +1,8 @@
 """Ceiling agents: controllers no ground station could field, which bound what one can achieve.
 
 Both read the episode's truth through one privileged accessor, :func:`episode_truth` (the true
-state now and the parameter draw's model), which is the only place that knows how the episode
-core stores them: adapt it, and only it, when the core's state structure changes.
+state now and the parameter draw's model), which is the only place that knows how the env's
+episode state stores them: adapt it, and only it, when that structure changes.
 
 * ``lqr-oracle`` (:class:`OracleLQRAgent`): the LQR of :mod:`agents.lqr` designed at every reset on
   the episode's own drawn model ``(A, B, c)``, acting on the **true state now** (no sensor noise, no
@@ -53,17 +53,17 @@ class EpisodeTruth:
 
 
 def episode_truth(env: gym.Env | gym.vector.VectorEnv) -> EpisodeTruth:
-    """PRIVILEGED: the true state and each episode's drawn window model, read from the episode
-    core (``env.unwrapped.core.state``, an :class:`~sail_env.core.state.EpisodeState`: ``x`` and
-    ``params``). The one function to adapt when the core's state structure changes; nothing else in
-    :mod:`agents` reads the core."""
-    core = env.unwrapped.core
-    p, n_envs, m = core.state.params, core.num_envs, core.spec.plant.n_inputs
+    """PRIVILEGED: the true state and each episode's drawn window model, read from the env's
+    episode state (``env.unwrapped.state``, an :class:`~sail_env.core.state.EpisodeState`: ``x`` and
+    ``params``). The one function to adapt when that structure changes; nothing else in
+    :mod:`agents` reads it."""
+    state = env.unwrapped.state
+    p, n_envs, m = state.params, state.x.shape[0], env.unwrapped.episode_spec.plant.n_inputs
     a = np.broadcast_to(p.a, (n_envs, *p.a.shape[1:]))
     b = np.broadcast_to(p.b, (n_envs, *p.b.shape[1:]))
     constant = b[:, :, m] if b.shape[2] > m else np.zeros(a.shape[:2])
     acceleration = np.broadcast_to(p.acceleration, (n_envs,))
-    return EpisodeTruth(core.state.x.copy(), a.copy(), b[:, :, :m].copy(), constant.copy(), acceleration.copy())
+    return EpisodeTruth(state.x.copy(), a.copy(), b[:, :, :m].copy(), constant.copy(), acceleration.copy())
 
 
 class _OracleMixin:

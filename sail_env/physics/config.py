@@ -39,6 +39,24 @@ def boolean(value: object, name: str) -> bool:
     return bool(value)
 
 
+def check_timing(control_start_s: float, control_step_s: float, control_window_s: float,
+                 beam_cutoff_s: float) -> None:
+    """The control window's timing, as every sail's configuration checks it (the step and the
+    cut-off already > 0): it starts at or after launch, holds at least one and at most
+    :data:`MAX_CONTROL_STEPS` steps, and ends by the beam's cut-off. ``ValueError`` names the field."""
+    if control_start_s < 0:
+        raise ValueError(f"control_start_s must be >= 0, got {control_start_s}")
+    if control_window_s < control_step_s:
+        raise ValueError(f"control_window_s must be >= control_step_s ({control_step_s} s), got {control_window_s}")
+    if control_start_s + control_window_s > beam_cutoff_s:
+        raise ValueError(f"control_start_s + control_window_s must be <= beam_cutoff_s ({beam_cutoff_s} s), "
+                         f"got {control_start_s + control_window_s}")
+    steps = control_window_s / control_step_s  # may overflow to inf: compared before rounding
+    if not steps <= MAX_CONTROL_STEPS:
+        raise ValueError(f"control_window_s / control_step_s must be <= {MAX_CONTROL_STEPS} steps, got "
+                         f"{control_window_s} / {control_step_s} = {steps:.6g}")
+
+
 def check_below_light_speed(acceleration_m_s2: float, t: float, what: str,
                             remedy: str = "push_force_n or beam_cutoff_s") -> None:
     """The planar model is Newtonian (``Vz = a t``): refuse a push that would pass the speed of light
@@ -106,25 +124,7 @@ class SailConfig:
                 f"strut_length_m must be >= com_distance_m ({self.com_distance_m} m), "
                 f"got {self.strut_length_m}"
             )
-        if self.control_start_s < 0:
-            raise ValueError(f"control_start_s must be >= 0, got {self.control_start_s}")
-        if self.control_window_s < self.control_step_s:
-            raise ValueError(
-                f"control_window_s must be >= control_step_s ({self.control_step_s} s), "
-                f"got {self.control_window_s}"
-            )
-        control_end = self.control_start_s + self.control_window_s
-        if control_end > self.beam_cutoff_s:
-            raise ValueError(
-                "control_start_s + control_window_s must be <= beam_cutoff_s "
-                f"({self.beam_cutoff_s} s), got {control_end}"
-            )
-        steps = self.control_window_s / self.control_step_s  # may overflow to inf: compared before rounding
-        if not steps <= MAX_CONTROL_STEPS:
-            raise ValueError(
-                f"control_window_s / control_step_s must be <= {MAX_CONTROL_STEPS} steps, got "
-                f"{self.control_window_s} / {self.control_step_s} = {steps:.6g}"
-            )
+        check_timing(self.control_start_s, self.control_step_s, self.control_window_s, self.beam_cutoff_s)
         check_below_light_speed(self.axial_acceleration_m_s2, self.beam_cutoff_s, "push_force_n and beam_cutoff_s")
 
     @property

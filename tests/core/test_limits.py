@@ -15,6 +15,8 @@ from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
 from sail_env.physics.config import MAX_CONTROL_STEPS
 from sail_env.physics.planar_plant import PlanarPlant
+from sail_env.physics.rigid3d.config import RigidSailConfig
+from sail_env.physics.rigid3d.plant import RigidTaskConfig
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.tasks import DEEP_DISH_START_HALF_WIDTHS, REALISTIC_DISTURBANCES
 
@@ -135,6 +137,20 @@ def test_windows_beyond_the_step_limit_are_refused():
     SEED.replace(control_window_s=MAX_CONTROL_STEPS * 0.005)
     with pytest.raises(ValueError, match="control_window_s / control_step_s"):
         SEED.replace(control_window_s=1.0, control_step_s=1e-320)  # the ratio overflows to inf
+
+
+@pytest.mark.parametrize("timing, match", [
+    ({"control_start_s": -1.0}, "control_start_s must be >= 0"),
+    ({"control_window_s": 0.001}, "control_window_s must be >= control_step_s"),
+    ({"control_start_s": 599.5}, "control_start_s \\+ control_window_s must be <= beam_cutoff_s"),
+    ({"control_window_s": 1.0, "control_step_s": 1e-320}, "control_window_s / control_step_s"),
+    ({"control_window_s": (MAX_CONTROL_STEPS + 1) * 0.005}, "control_window_s / control_step_s")])
+def test_both_sails_check_the_windows_timing_alike(timing, match):
+    """The planar and the 3D configurations share one timing check (the 3D one had lacked the step limit)."""
+    RigidTaskConfig(control_window_s=MAX_CONTROL_STEPS * 0.005)
+    for make in (SEED.replace, functools.partial(RigidTaskConfig, RigidSailConfig())):
+        with pytest.raises(ValueError, match=match):
+            make(**timing)
 
 
 @pytest.mark.parametrize("kwargs, match", [

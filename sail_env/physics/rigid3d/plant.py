@@ -33,7 +33,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sail_env.physics.config import SEED, boolean, real_number
+from sail_env.physics.config import SEED, boolean, check_timing, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
 from sail_env.physics.noise import moment_growth_rate
@@ -121,14 +121,7 @@ class RigidTaskConfig:
             raise ValueError(f"power_control must be in [0, {MAX_POWER_CONTROL}] (0: no power input), "
                              f"got {self.power_control}")
         check_spin(self.spin_rad_s, self.control_step_s)
-        if self.control_start_s < 0:
-            raise ValueError(f"control_start_s must be >= 0, got {self.control_start_s}")
-        if self.control_window_s < self.control_step_s:
-            raise ValueError(f"control_window_s must be >= control_step_s ({self.control_step_s} s), "
-                             f"got {self.control_window_s}")
-        if self.control_start_s + self.control_window_s > self.beam_cutoff_s:
-            raise ValueError(f"control_start_s + control_window_s must be <= beam_cutoff_s ({self.beam_cutoff_s} s), "
-                             f"got {self.control_start_s + self.control_window_s}")
+        check_timing(self.control_start_s, self.control_step_s, self.control_window_s, self.beam_cutoff_s)
 
     @property
     def window_middle_s(self) -> float:
