@@ -1,4 +1,4 @@
-"""The control window's linear model against the nonlinear rigid body (benchmarks/window_vs_nonlinear.py):
+"""The control window's linear model against the nonlinear rigid body (research/window_vs_nonlinear.py):
 in a Gaussian beam it holds at the task's own starts; in the flat-top of the aperture's size it does not
 (the spot's edge on the rim kinks the force at zero offset; docs/physics.md §14).
 
@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.window_vs_nonlinear import FLAT_TOP_ID, GAUSSIAN_ID, task_kwargs, window_errors, window_starts
+from research.window_vs_nonlinear import FLAT_TOP_ID, GAUSSIAN_ID, task_kwargs, window_errors, window_starts
 
 #: The Gaussian task's seed whose window start is compared (its error is among the larger: 1.6 % at waist
 #: 0.8 a, 2.1 % at a).
