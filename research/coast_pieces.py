@@ -77,7 +77,7 @@ def propagate(plant, a_rad, b, window, piece: float, method: str) -> np.ndarray:
 
 
 def coast_model() -> tuple[RigidPlant, np.ndarray, np.ndarray, float]:
-    """The realistic sail of this benchmark (nominal draw), its radiation's part of ``A`` and its
+    """The realistic sail of this measurement (nominal draw), its radiation's part of ``A`` and its
     ``B`` (held at the window's power factor), and that power factor."""
     sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
     plant = RigidPlant(RigidTaskConfig(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0))
