@@ -1,5 +1,6 @@
 """The README's quick example runs and prints what the README says it prints; its results table is
-the kept results rendered; it names every registered id once."""
+the kept results rendered, as the docs' grid tables are their kept exports; it names every
+registered id once."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from agents import cli
 from benchmarks import results_table
@@ -99,3 +101,18 @@ def test_every_registered_id_is_in_the_task_table_or_named_as_kept_for_compariso
     for name in kept:
         stem, version = name.rsplit("-v", 1)
         assert f"{stem}-v{int(version) + 1}" in registered, name
+
+
+@pytest.mark.parametrize(("study", "doc", "section"), [("realistic", "docs/learners.md", "realistic-table"),
+                                                        ("3d", "docs/tasks.md", "3d-table")])
+def test_the_docs_grid_tables_are_their_kept_exports_rendered(study: str, doc: str, section: str) -> None:
+    """A grid's table in the docs is what ``agents.grid import`` and ``render`` make of its kept
+    export (here into memory, as they would into a fresh clone's runs/grid.db)."""
+    import optuna
+
+    from agents import grid, kept
+
+    storage = optuna.storages.InMemoryStorage()
+    grid.import_grid(storage, study, kept.read(results_table.GRIDS[study], study, "--file"))
+    assert readme_section(ROOT / doc, section) == grid.table_markdown(optuna.load_study(storage=storage,
+                                                                                          study_name=study))
