@@ -116,3 +116,23 @@ def test_the_docs_grid_tables_are_their_kept_exports_rendered(study: str, doc: s
     grid.import_grid(storage, study, kept.read(results_table.GRIDS[study], study, "--file"))
     assert readme_section(ROOT / doc, section) == grid.table_markdown(optuna.load_study(storage=storage,
                                                                                           study_name=study))
+
+
+def test_pyprojects_mutation_settings_name_files_and_sections_that_exist() -> None:
+    """``[tool.mutmut]`` names modules and tests that exist (a module moved or renamed would silently
+    drop out of the mutation run), and each pointer to a doc's section finds that section."""
+    import tomllib
+
+    text = (ROOT / "pyproject.toml").read_text()
+    mutmut = tomllib.loads(text)["tool"]["mutmut"]
+    selection = mutmut["pytest_add_cli_args_test_selection"]
+    deselected = selection[selection.index("--deselect") + 1]
+    tests = [arg for arg in selection if arg.startswith("tests/") and arg != deselected]
+    assert [path for path in (*mutmut["only_mutate"], *tests, deselected.split("::")[0])
+            if not (ROOT / path).exists()] == []
+    assert f"def {deselected.split('::')[1]}(" in (ROOT / deselected.split("::")[0]).read_text()
+    pointers = re.findall(r"(docs/[\w.-]+\.md),? \"([^\"]+)\"", text)
+    assert len(pointers) == 2
+    for doc, section in pointers:
+        assert f"## {section}\n" in (ROOT / doc).read_text(), (doc, section)
+    assert "README \"" not in text
