@@ -418,3 +418,22 @@ def test_uncertain_sizes_measures_each_scale_once_and_refuses_one_past_a_limit(t
     capsys.readouterr()
     uncertain_sizes.main(["--episodes", "1", "--scales", "1", "--out", str(out)])  # measured: kept, not replayed
     assert "x1 lqg" not in capsys.readouterr().out
+
+
+def test_results_table_goes_between_the_markers_and_a_file_without_them_is_refused(tmp_path, capsys):
+    """``python -m benchmarks.results_table --readme FILE`` puts the table between FILE's markers and
+    leaves the rest; a file without them is one line on stderr, exit 2, and stays as it was."""
+    from agents import cli
+    from benchmarks import results_table
+
+    start, end = cli.section_markers(results_table.SECTION)
+    readme = tmp_path / "README.md"
+    readme.write_text(f"before\n{start}\nold\n{end}\nafter\n")
+    assert results_table.main(["--readme", str(readme)]) == 0
+    assert readme.read_text() == f"before\n{start}\n{results_table.render()}\n{end}\nafter\n"
+    plain = tmp_path / "plain.md"
+    plain.write_text("no markers\n")
+    capsys.readouterr()
+    assert results_table.main(["--readme", str(plain)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no <!-- results-table:start -->" in err and plain.read_text() == "no markers\n"
