@@ -86,8 +86,53 @@ def test_learning_curves_from_a_grid_export_take_each_cells_latest_trial(tmp_pat
     assert "no run with a learning curve" in capsys.readouterr().err
 
 
+def test_reference_lines_near_100_percent_stay_off_the_frame_and_are_named_together(tmp_path, capsys, monkeypatch):
+    """The adaptive LQG and both bounds at 98-99 % once merged into the top of the frame: the axis now
+    runs above 100 %, and lines too close to tell apart are named together above them; a line two
+    points or more from its neighbours is not."""
+    from benchmarks import learning_curves
+
+    figures = []
+    subplots = learning_curves.plt.subplots
+    monkeypatch.setattr(learning_curves.plt, "subplots", lambda *a, **k: figures.append(subplots(*a, **k)) or figures[-1])
+    export = tmp_path / "grid.json"
+    export.write_text(json.dumps({"study": "g", "user_attrs": {}, "trials": [
+        {"user_attrs": {"cell": f"T-ppo-tuned-{seed}"}, "intermediate_values": {"10000": 0.5, "20000": 0.9}}
+        for seed in range(2)]}))
+    report = tmp_path / "report.json"
+    report.write_text(json.dumps({"agents": {name: {"success_rate": rate, "episodes": 500} for name, rate in
+                                             (("lqg", 0.826), ("lqg-mm", 0.986), ("lqr-oracle", 0.992),
+                                              ("lqg-oracle", 0.984))}}))
+    assert learning_curves.main(["--env", "T", "--grid", str(export), "--runs", "PPO=T-ppo-*", "--report", str(report),
+                                 "--out", str(tmp_path / "curve.png")]) == 0
+    (fig, ax), = figures
+    assert ax.get_ylim()[1] >= 105
+    notes = [text.get_text() for text in ax.texts]
+    assert notes == ["ceiling: LQG oracle / adaptive LQG (lqg-mm) / ceiling: LQR oracle: 98.4–99.2 %, on top of each other"]
+    assert learning_curves.bundles({"a": (0.5, 1), "b": (0.52, 1), "c": (0.53, 1)}) == [["b", "c"]]
+
+
 def test_every_reference_line_has_a_style():
     """zip() would drop a reference without one, silently (the fourth, lqg-oracle, once was)."""
     from benchmarks import learning_curves
 
     assert len(learning_curves.REFERENCE_STYLES) >= len(learning_curves.REFERENCES)
+
+
+def test_results_table_goes_between_the_markers_and_a_file_without_them_is_refused(tmp_path, capsys):
+    """``python -m benchmarks.results_table --readme FILE`` puts the table between FILE's markers and
+    leaves the rest; a file without them is one line on stderr, exit 2, and stays as it was."""
+    from agents import cli
+    from benchmarks import results_table
+
+    start, end = cli.section_markers(results_table.SECTION)
+    readme = tmp_path / "README.md"
+    readme.write_text(f"before\n{start}\nold\n{end}\nafter\n")
+    assert results_table.main(["--readme", str(readme)]) == 0
+    assert readme.read_text() == f"before\n{start}\n{results_table.render()}\n{end}\nafter\n"
+    plain = tmp_path / "plain.md"
+    plain.write_text("no markers\n")
+    capsys.readouterr()
+    assert results_table.main(["--readme", str(plain)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no <!-- results-table:start -->" in err and plain.read_text() == "no markers\n"
