@@ -105,7 +105,9 @@ def code_version() -> str:
     from sail_env.physics.blas import blas_libraries
     from sail_env.provenance import cpu_model
 
-    blas = [f"{lib.internal_api} {lib.version} {lib.architecture}" for lib in blas_libraries()]
+    # Sorted: threadpoolctl lists the libraries in the order it finds them, NumPy's and SciPy's OpenBLAS either
+    # way round between identical processes, and each order would file the same tables under another key.
+    blas = sorted(f"{lib.internal_api} {lib.version} {lib.architecture}" for lib in blas_libraries())
     settings = [_SOURCES, sys.version, np.__version__, scipy.__version__, numba.__version__,
                 f"NUMBA_DISABLE_JIT={os.environ.get('NUMBA_DISABLE_JIT')}", platform.machine(), cpu_model(),
                 _numpy_cpu_features(), *blas, *(f"{name}={os.environ.get(name)}" for name in BLAS_VARIABLES)]

@@ -3,13 +3,14 @@ and another sail gets its own."""
 
 import dataclasses
 import os
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import sail_env  # noqa: F401
-from sail_env.physics import memo
+from sail_env.physics import blas, memo
 from sail_env.physics.memo import built_once
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
@@ -218,3 +219,16 @@ def test_the_directory_is_the_variable_s_else_the_xdg_cache_s_else_the_home_s(mo
     for off in (" Off ", "0", "false"):
         monkeypatch.setenv(memo.CACHE_VARIABLE, off)
         assert memo.cache_dir() is None
+
+
+def test_the_key_does_not_depend_on_the_order_threadpoolctl_lists_the_blas_libraries(tables_dir, monkeypatch):
+    """threadpoolctl lists NumPy's and SciPy's OpenBLAS in either order between identical processes: each
+    order must give the same key, or half the processes miss the other half's tables."""
+    numpy_s, scipy_s = (SimpleNamespace(internal_api="openblas", version=version, architecture=kernel)
+                        for version, kernel in (("0.3.27", "Haswell"), ("0.3.21", "SkylakeX")))
+    keys = set()
+    for listed in ((numpy_s, scipy_s), (scipy_s, numpy_s)):
+        monkeypatch.setattr(blas, "blas_libraries", lambda listed=listed: listed)
+        memo.code_version.cache_clear()
+        keys.add(memo.code_version())
+    assert len(keys) == 1
