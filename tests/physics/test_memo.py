@@ -2,7 +2,10 @@
 and another sail gets its own."""
 
 import dataclasses
+import multiprocessing
 import os
+import sys
+import warnings
 from types import SimpleNamespace
 
 import gymnasium as gym
@@ -102,26 +105,103 @@ def test_a_table_is_built_once_written_and_loaded_by_a_later_process_to_the_bit(
     later = built_once(counted_table)(5)  # a new process: a new in-memory cache, the same directory
     assert BUILT == [5] and later is not first and np.array_equal(later, first)
     assert later.tobytes() == (np.arange(5) / 7.0).tobytes() and not later.flags.writeable
-    assert len(list(tables_dir.glob("counted_table-*.pkl"))) == 1 and not list(tables_dir.glob("*.tmp"))
+    assert len(list(tables_dir.glob(f"counted_table-*{memo.SUFFIX}"))) == 1 and not list(tables_dir.glob("*.tmp"))
     built_once(counted_table)(6)
     assert BUILT == [5, 6]
 
 
 def test_a_new_machine_set_up_a_file_of_another_key_or_an_unreadable_one_builds_afresh(tables_dir, monkeypatch):
     built_once(counted_table)(5)
-    (first,) = tables_dir.glob("*.pkl")
+    (first,) = tables_dir.glob(f"*{memo.SUFFIX}")
     # Other OpenBLAS blocking (or kernels) round differently: another key, another file.
     monkeypatch.setenv("OPENBLAS_L2_SIZE", str(int(os.environ.get("OPENBLAS_L2_SIZE") or 0) + 4096))
     memo.code_version.cache_clear()
     built_once(counted_table)(5)
-    (second,) = set(tables_dir.glob("*.pkl")) - {first}
+    (second,) = set(tables_dir.glob(f"*{memo.SUFFIX}")) - {first}
     assert BUILT == [5, 5]
     second.write_bytes(first.read_bytes())  # a whole file under another name: its stored key tells
-    built_once(counted_table)(5)
+    with pytest.warns(RuntimeWarning, match="another table"):
+        built_once(counted_table)(5)
     second.write_bytes(b"truncated")
-    built_once(counted_table)(5)
+    with pytest.warns(RuntimeWarning, match="not a table file"):
+        built_once(counted_table)(5)
     assert BUILT == [5, 5, 5, 5]
     assert np.array_equal(built_once(counted_table)(5), np.arange(5) / 7.0) and BUILT == [5, 5, 5, 5]
+
+
+def flip_a_bit_in_the_array(content: bytes) -> bytes:
+    """The file with one bit flipped inside the table's float array (as a disk or a copy might)."""
+    at = content.index((np.arange(50) / 7.0).tobytes()) + 8 * 20 + 3
+    return content[:at] + bytes([content[at] ^ 0x10]) + content[at + 1:]
+
+
+@pytest.mark.parametrize("damage, reason", [
+    (flip_a_bit_in_the_array, "does not match its SHA-256"),
+    (lambda content: content[: len(content) * 2 // 3], "does not match its SHA-256"),  # a writer killed mid-copy
+    (lambda content: content.replace(b"table 1\n", b"table 2\n", 1), "not a table file of this format and version"),
+    (lambda content: b"\x80\x05" + content, "not a table file"),  # a pickle, say
+])
+def test_a_damaged_truncated_or_foreign_file_is_never_used_but_built_again_with_one_warning(tables_dir, damage,
+                                                                                             reason):
+    built_once(counted_table)(50)
+    (path,) = tables_dir.glob(f"*{memo.SUFFIX}")
+    path.write_bytes(damage(path.read_bytes()))
+    with pytest.warns(RuntimeWarning) as warned:
+        rebuilt = built_once(counted_table)(50)
+    assert len(warned) == 1 and reason in str(warned[0].message) and str(path) in str(warned[0].message)
+    assert BUILT == [50, 50] and rebuilt.tobytes() == (np.arange(50) / 7.0).tobytes()
+    # Replaced (atomically: no temporary file left): the next process loads it, without a warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert built_once(counted_table)(50).tobytes() == rebuilt.tobytes()
+    assert BUILT == [50, 50] and list(tables_dir.iterdir()) == [path]
+
+
+@pytest.mark.parametrize("structure, arrays", [
+    ({"partial": [{"function": "shutil:rmtree"}, {"tuple": ["."]}, {"dict": []}]}, []),
+    ({"object": ["subprocess:Popen", None]}, []),
+    ({"object": ["builtins:eval", None]}, []),
+    ({"array": 0}, [np.array([print], dtype=object)]),  # an array of objects (a pickle inside)
+])
+def test_a_file_runs_no_code_it_names(tables_dir, tmp_path, monkeypatch, structure, arrays):
+    """The format holds no code: a file can name only classes and functions of this package and SciPy that
+    are already imported, and loading calls none of its functions."""
+    monkeypatch.chdir(tmp_path)  # where a forged rmtree(".") would have removed the tables
+    built_once(counted_table)(5)
+    (path,) = tables_dir.glob(f"*{memo.SUFFIX}")
+    key = memo._read(path)[0]
+    with monkeypatch.context() as patch, path.open("wb") as file:  # forged, its digest right
+        patch.setattr(memo, "_to_arrays", lambda table: (structure, arrays))
+        memo._write(file, key, None)
+    with pytest.warns(RuntimeWarning, match="not used"):
+        assert built_once(counted_table)(5).tobytes() == (np.arange(5) / 7.0).tobytes()
+    assert BUILT == [5, 5] and list(tmp_path.iterdir()) == [tables_dir]
+
+
+RACE: list = []  # the barrier the racing writers meet at (set before they fork)
+
+
+def raced_table(size: int) -> np.ndarray:
+    """A table whose builders wait for each other: both have found no file, both write."""
+    BUILT.append(size)
+    RACE[0].wait(timeout=120)
+    return np.arange(size) / 7.0
+
+
+def test_two_processes_writing_the_same_table_leave_one_whole_file(tables_dir, monkeypatch):
+    context = multiprocessing.get_context("fork")
+    monkeypatch.setattr(sys.modules[__name__], "RACE", [context.Barrier(2)])
+    writers = [context.Process(target=built_once(raced_table), args=(40,)) for _ in range(2)]
+    for writer in writers:
+        writer.start()
+    for writer in writers:
+        writer.join(timeout=180)
+    assert [writer.exitcode for writer in writers] == [0, 0]
+    (path,) = tables_dir.iterdir()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert built_once(raced_table)(40).tobytes() == (np.arange(40) / 7.0).tobytes()
+    assert BUILT == []  # this process loaded what the others wrote
 
 
 def test_a_file_that_cannot_be_touched_is_still_read_and_stale_temporary_files_go(tables_dir, monkeypatch):
@@ -156,13 +236,16 @@ def test_the_disk_keeps_the_most_recently_used_tables_of_a_kind(tables_dir, monk
     monkeypatch.setattr(memo, "TABLES_KEPT", 2)
     once = built_once(counted_table)
     once(1), once(2)
+    earlier_format = tables_dir / "counted_table-0123456789abcdef0123456789abcdef.pkl"
+    earlier_format.write_bytes(b"a pickle, never read again")
+    os.utime(earlier_format, (1e8, 1e8))
     for age, size in ((2, 1), (1, 2)):  # 1 older than 2, both long ago (whatever the clock's resolution)
-        (path,) = [p for p in tables_dir.glob("*.pkl") if np.array_equal(memo.pickle.loads(p.read_bytes())[1],
-                                                                           np.arange(size) / 7.0)]
+        (path,) = [p for p in tables_dir.glob(f"*{memo.SUFFIX}") if np.array_equal(memo._read(p)[1],
+                                                                                    np.arange(size) / 7.0)]
         os.utime(path, (1e9 - age, 1e9 - age))
     built_once(counted_table)(1)  # read from disk: now the most recently used
     once(3)
-    assert BUILT == [1, 2, 3] and len(list(tables_dir.glob("counted_table-*.pkl"))) == 2
+    assert BUILT == [1, 2, 3] and len(list(tables_dir.glob("counted_table-*"))) == 2
     built_once(counted_table)(1), built_once(counted_table)(3)
     assert BUILT == [1, 2, 3]
     built_once(counted_table)(2)  # its file was the oldest: removed, built again
@@ -185,7 +268,7 @@ def test_the_3d_tables_loaded_from_disk_are_the_built_ones_to_the_bit(tables_dir
     flights_args = (SAIL, 1200.0, True, 5e8, 1.2)
     fresh = DrawFlights(RigidSail(SAIL), *flights_args[1:])
     written, loaded = built_once(counted_flights)(*flights_args), built_once(counted_flights)(*flights_args)
-    assert BUILT == ["flights"] and written is not loaded and len(list(tables_dir.glob("*.pkl"))) == 1
+    assert BUILT == ["flights"] and written is not loaded and len(list(tables_dir.glob(f"*{memo.SUFFIX}"))) == 1
     for name, value in vars(fresh.table).items():
         assert np.array_equal(np.asarray(getattr(loaded.table, name)), np.asarray(value)), name
     ratios, times = np.full(7, 1.1), np.linspace(0.0, 1200.0, 7)
