@@ -41,7 +41,7 @@ from sail_env.physics.rigid3d.config import RigidSailConfig
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
-# compiled in: sail_env/jit.py sail_env/physics/constants.py sha256:94063faffca43401
+# compiled in: sail_env/jit.py sail_env/physics/constants.py sha256:f3bba43c153af2cd
 
 #: Flights a :class:`DrawFlights` with diffraction integrates across the draws' range of ``F/m``.
 DRAW_NODES = 9
