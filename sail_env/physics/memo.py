@@ -14,7 +14,7 @@ them, the versions of Python, NumPy, SciPy and Numba, the CPU and the features N
 BLAS library's version and kernel, sorted), so a change to any of them builds afresh. A file holds a
 first line naming the format and its version, a line of the key and the SHA-256 of the rest, and an
 ``.npz`` archive of the table's arrays (read without pickle) and its structure as JSON (its objects'
-classes and functions named, of this package and SciPy only, never imported or called by loading:
+classes and functions named, of this package and SciPy only, none of them called by loading:
 :func:`_to_arrays`). A file that is truncated, damaged, of another format or version or holds another
 key is never used: the table is built again, with one warning, and the file replaced. Files are written
 to a temporary file and renamed (a reader sees a whole file or none; two processes writing the same table
@@ -33,6 +33,7 @@ from __future__ import annotations
 import copyreg
 import functools
 import hashlib
+import importlib
 import io
 import json
 import os
@@ -61,7 +62,7 @@ BLAS_VARIABLES = ("OPENBLAS_CORETYPE", "OPENBLAS_L2_SIZE")
 FORMAT = b"lightsail-gym table 1\n"
 #: The table files' suffix.
 SUFFIX = ".table"
-#: The modules whose classes and functions a table file may name (looked up among those already imported).
+#: The packages whose classes and functions a table file may name (by module and qualified name).
 NAMED_FROM = ("sail_env.", "scipy.")
 
 Table = TypeVar("Table")
@@ -317,13 +318,13 @@ def _name_of(value: type | types.FunctionType) -> str:
 
 
 def _named(name: str, kind: type) -> object:
-    """The class or function ``module:qualname`` of an already imported module of :data:`NAMED_FROM`
-    (nothing is imported), if it is a ``kind``; else ValueError."""
+    """The class or function ``module:qualname`` of a module of :data:`NAMED_FROM` (imported if need be: a
+    new process that loads a table may not have imported its classes' modules yet), if it is a ``kind``;
+    else ValueError."""
     module_name, _, qualname = name.partition(":")
-    module = sys.modules.get(module_name)
-    if not module_name.startswith(NAMED_FROM) or module is None:
-        raise ValueError(f"{name} is not of an imported module of {', '.join(NAMED_FROM)}")
-    value = functools.reduce(getattr, qualname.split("."), module)
+    if not module_name.startswith(NAMED_FROM):
+        raise ValueError(f"{name} is not of a module of {', '.join(NAMED_FROM)}")
+    value = functools.reduce(getattr, qualname.split("."), importlib.import_module(module_name))
     if not isinstance(value, kind):
         raise ValueError(f"{name} is not a {kind.__name__}")
     return value

@@ -2,10 +2,13 @@
 and another sail gets its own."""
 
 import dataclasses
+import inspect
 import multiprocessing
 import os
+import subprocess
 import sys
 import warnings
+from pathlib import Path
 from types import SimpleNamespace
 
 import gymnasium as gym
@@ -290,6 +293,34 @@ def test_the_3d_tables_loaded_from_disk_are_the_built_ones_to_the_bit(tables_dir
     for got, want in zip(loaded_curvature.at(radii, absorptivities), curvature.at(radii, absorptivities)):
         assert got.tobytes() == want.tobytes()
     assert BUILT == ["flights", "scales", "curvature"]
+
+
+#: A new process loads the three 3D tables another wrote (building is made to fail), without a warning.
+LOAD_IN_A_NEW_PROCESS = """
+import warnings
+warnings.simplefilter("error")
+from sail_env.physics.rigid3d import flight, scales, uncertainty
+from sail_env.physics.rigid3d.config import RigidSailConfig
+
+def refused(*args, **kwargs):
+    raise AssertionError("built, not loaded")
+
+flight.DrawFlights.__init__ = scales.ScaleTable.__init__ = uncertainty.CurvatureTable.__init__ = refused
+flight.draw_flights(*{flights!r}), scales.scale_table(*{scales!r}), uncertainty.curvature_table(*{curvature!r})
+"""
+
+
+def test_a_new_process_loads_the_3d_tables_before_it_imported_their_classes_modules(tables_dir):
+    """SciPy's splines of the curvature table are of a module a new process imports only when it loads them."""
+    from sail_env.physics.rigid3d import flight, scales, uncertainty
+
+    arguments = {"flights": (SAIL, 1200.0, True, 5e8, 1.2), "scales": (SAIL, 1.5, True), "curvature": (SAIL, 1.0, 0.2)}
+    for factory, args in zip((flight.draw_flights, scales.scale_table, uncertainty.curvature_table), arguments.values()):
+        memo._stored(inspect.unwrap(factory), args)
+    assert len(list(tables_dir.iterdir())) == 3
+    run = subprocess.run([sys.executable, "-c", LOAD_IN_A_NEW_PROCESS.format(**arguments)], capture_output=True,
+                         text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(Path(memo.__file__).parents[2])})
+    assert run.returncode == 0, run.stderr[-2000:]
 
 
 def test_the_directory_is_the_variable_s_else_the_xdg_cache_s_else_the_home_s(monkeypatch, tmp_path):
