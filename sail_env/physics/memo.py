@@ -156,7 +156,7 @@ def _stored(factory: Callable[..., Table], args: tuple) -> Table:
         pass
     except Exception as error:  # truncated, damaged, foreign or unreadable: never used
         warnings.warn(f"table cache: {path} not used ({error}); built again and replaced", RuntimeWarning,
-                      stacklevel=4)
+                      stacklevel=3)
     else:
         try:
             os.utime(path)  # recently used: kept by _prune
@@ -212,10 +212,10 @@ def _read(path: Path) -> tuple[str, object]:
 
 def _to_arrays(table: object) -> tuple[object, list[np.ndarray]]:
     """``table`` as a JSON structure and the arrays it refers to by number: numbers, strings and None as
-    themselves; NumPy arrays and scalars (not of objects), lists, tuples, dicts, ``functools.partial`` objects, and
-    the functions and the objects of classes of :data:`NAMED_FROM` (by name; an object's state as pickle
-    would take it) as one-key dicts. An array, list, dict or object met again is a reference (``{"ref": n}``,
-    numbered as first met), so shared parts stay shared. Anything else: TypeError (not stored)."""
+    themselves; NumPy arrays and scalars (not of objects), lists, tuples, dicts, ``functools.partial``
+    objects, and the functions and the objects of classes of :data:`NAMED_FROM` (by name; an object's
+    state as pickle would take it) as one-key dicts. An array, list, dict or object met again is a reference (``{"ref": n}``,
+    numbered as first met), so shared parts stay shared. Anything else: an error (not stored)."""
     arrays: list[np.ndarray] = []
     numbered: dict[int, tuple[int, object]] = {}  # id -> (number, the value, kept alive while its id is used)
 
@@ -300,7 +300,8 @@ def _from_arrays(structure: object, arrays: list[np.ndarray]) -> object:
             made.__setstate__(state)
             return made
         state, slots = state if isinstance(state, tuple) else (state, None)
-        vars(made).update(state or {})
+        if state:
+            vars(made).update(state)
         for slot, value in (slots or {}).items():
             setattr(made, slot, value)
         return made
@@ -309,8 +310,8 @@ def _from_arrays(structure: object, arrays: list[np.ndarray]) -> object:
 
 
 def _name_of(value: type | types.FunctionType) -> str:
-    """``module:qualname`` of a class or function of :data:`NAMED_FROM` (found again by that name), else
-    TypeError."""
+    """``module:qualname`` of a class or function of :data:`NAMED_FROM` that is found again by that name;
+    else an error (the table is not stored)."""
     name = f"{value.__module__}:{value.__qualname__}"
     if _named(name, type(value) if isinstance(value, types.FunctionType) else type) is not value:
         raise TypeError(f"{name} is not found by its name")

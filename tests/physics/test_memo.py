@@ -18,6 +18,7 @@ import pytest
 import sail_env  # noqa: F401
 from sail_env.physics import blas, memo
 from sail_env.physics.memo import built_once
+from sail_env.physics.rigid3d import flight, scales, uncertainty
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights
@@ -207,6 +208,17 @@ def test_two_processes_writing_the_same_table_leave_one_whole_file(tables_dir, m
     assert BUILT == []  # this process loaded what the others wrote
 
 
+def unnamed_parts(size: int) -> dict:
+    BUILT.append(size)
+    return {"rows": np.arange(size), "pick": lambda row: row}
+
+
+def test_a_table_the_format_cannot_hold_is_kept_in_memory_only(tables_dir):
+    built_once(unnamed_parts)(3)
+    assert built_once(unnamed_parts)(3)["pick"](2) == 2
+    assert BUILT == [3, 3] and not list(tables_dir.iterdir())
+
+
 def test_a_file_that_cannot_be_touched_is_still_read_and_stale_temporary_files_go(tables_dir, monkeypatch):
     built_once(counted_table)(5)
     abandoned, fresh = tables_dir / "killed-writer.tmp", tables_dir / "writing-now.tmp"
@@ -312,10 +324,10 @@ flight.draw_flights(*{flights!r}), scales.scale_table(*{scales!r}), uncertainty.
 
 def test_a_new_process_loads_the_3d_tables_before_it_imported_their_classes_modules(tables_dir):
     """SciPy's splines of the curvature table are of a module a new process imports only when it loads them."""
-    from sail_env.physics.rigid3d import flight, scales, uncertainty
-
-    arguments = {"flights": (SAIL, 1200.0, True, 5e8, 1.2), "scales": (SAIL, 1.5, True), "curvature": (SAIL, 1.0, 0.2)}
-    for factory, args in zip((flight.draw_flights, scales.scale_table, uncertainty.curvature_table), arguments.values()):
+    arguments = {"flights": (SAIL, 1200.0, True, 5e8, 1.2), "scales": (SAIL, 1.5, True),
+                 "curvature": (SAIL, 1.0, 0.2)}
+    factories = (flight.draw_flights, scales.scale_table, uncertainty.curvature_table)
+    for factory, args in zip(factories, arguments.values()):
         memo._stored(inspect.unwrap(factory), args)
     assert len(list(tables_dir.iterdir())) == 3
     run = subprocess.run([sys.executable, "-c", LOAD_IN_A_NEW_PROCESS.format(**arguments)], capture_output=True,
