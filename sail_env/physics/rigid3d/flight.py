@@ -221,7 +221,7 @@ class FlightTable:
                                                      self.distance_rate, self.distance_accel], axis=-1))
 
     def __getstate__(self) -> dict:
-        """The table without its view (a third of the pickle in the disk cache, physics/memo.py)."""
+        """The table without its view (a third of its file in the disk cache, physics/memo.py)."""
         return {k: v for k, v in vars(self).items() if k != "_nodes"}
 
     def __setstate__(self, state: dict) -> None:
@@ -450,7 +450,7 @@ class DrawFlights:
         self.flights = [Flight(duration, relativistic, length, self.table, j) for j, length in enumerate(lengths)]
         self.nominal = self.flights[count // 2]
         self._positions = np.arange(count, dtype=float)
-        # Module functions, not lambdas: the flights are pickled into the table cache (physics/memo.py).
+        # Module functions, not lambdas: the table cache (physics/memo.py) stores functions by name.
         self._picks = {"speed": functools.partial(_pick_speed, relativistic=relativistic),
                        "power_factor": functools.partial(_pick_power_factor, relativistic=relativistic),
                        "distance": _pick_distance}
