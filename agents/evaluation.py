@@ -425,14 +425,18 @@ def write_report(out: Path, env_id: str, config: dict[str, Any], results: dict[s
     beside it, then published (:func:`publish`); after an error or Ctrl-C that folder is removed and
     ``out`` is as it was."""
     out = out.resolve()  # a link to a folder: the folder; "." has a name
+    made = [folder for folder in out.parents if not folder.exists()]  # innermost first
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = out.parent / f".{out.name}.writing-{os.getpid()}-{secrets.token_hex(4)}"
-    staging.mkdir()
     try:
+        staging.mkdir()
         report = write_report_files(staging, env_id, config, results, trajectories)
         publish(staging, out, overwrite)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
+        for folder in made:  # the folders made for it, unless another evaluation uses them now
+            with contextlib.suppress(OSError):
+                folder.rmdir()
         raise
     return report
 

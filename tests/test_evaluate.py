@@ -259,6 +259,16 @@ def test_a_write_cut_short_leaves_the_earlier_report_as_it_was(failure: BaseExce
     assert _files(earlier.parent) == before
 
 
+def test_a_failed_write_leaves_no_folder_it_made(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    def disk_full(*args: object) -> None:
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(evaluate, "plot_pointing", disk_full)
+    assert evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(tmp_path / "a" / "b" / "report"),
+                          "--no-progress-bar"]) == 2
+    assert "No space left on device" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("overwrite", [False, True])
 def test_two_evaluations_into_one_out_never_mix(overwrite: bool, tmp_path: Path, capsys: pytest.CaptureFixture,
                                                 monkeypatch: pytest.MonkeyPatch) -> None:
