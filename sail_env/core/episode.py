@@ -93,21 +93,11 @@ class EpisodeCore:
             tables += [group[0], group[1] if len(group) > 1 else -1]
         layout[int(Slot.TABLES):] = tables
         floats, ints, views = allocate(n, layout, {
-            Slot.X: (ns,), Slot.LAST_COMMAND: (m,), Slot.APPLIED: (m,), Slot.CUTOFF: (), Slot.SPEED_AT_CUTOFF: (),
-            Slot.REWARD: (), Slot.ENVELOPE: (), Slot.COMMANDS: (ring, m), Slot.STATE_HISTORY: (state_ring, ns),
-            Slot.NORMAL_BLOCK: (sum(parts),), Slot.JITTER_STD: (w if jittered else 0,),
-            Slot.IMPACT_COUNTS: (w if impacts else 0,), Slot.IMPACT_STD: (impacts,)},
-            {Slot.STEP: (), Slot.FINISHED: (), Slot.TERMINATED: (), Slot.DIVERGED: (), Slot.LAG0: (),
-             Slot.DELAY: (delay_length,)})
-        self.state = EpisodeState(
-            x=views[Slot.X], step=views[Slot.STEP], last_command=views[Slot.LAST_COMMAND],
-            applied=views[Slot.APPLIED], finished=views[Slot.FINISHED], terminated=views[Slot.TERMINATED],
-            diverged=views[Slot.DIVERGED], reward=views[Slot.REWARD], envelope=views[Slot.ENVELOPE],
-            cutoff_s=views[Slot.CUTOFF], speed_at_cutoff=views[Slot.SPEED_AT_CUTOFF], lag0=views[Slot.LAG0],
-            delay=views[Slot.DELAY], commands=views[Slot.COMMANDS], states=views[Slot.STATE_HISTORY],
-            normals=views[Slot.NORMAL_BLOCK], jitter_std=views[Slot.JITTER_STD],
-            impact_counts=views[Slot.IMPACT_COUNTS], impact_std=views[Slot.IMPACT_STD], params=params,
-            rngs=[None] * n, floats=floats, ints=ints, layout=layout)
+            "x": (ns,), "last_command": (m,), "applied": (m,), "cutoff_s": (), "speed_at_cutoff": (), "reward": (),
+            "envelope": (), "commands": (ring, m), "states": (state_ring, ns), "normals": (sum(parts),),
+            "jitter_std": (w if jittered else 0,), "impact_counts": (w if impacts else 0,), "impact_std": (impacts,),
+            "step": (), "finished": (), "terminated": (), "diverged": (), "lag0": (), "delay": (delay_length,)})
+        self.state = EpisodeState(**views, params=params, rngs=[None] * n, floats=floats, ints=ints, layout=layout)
         self.state.finished[:] = 1
         self.state.cutoff_s[:] = spec.config.beam_cutoff_s
         self.state.speed_at_cutoff[:] = plant.speed(params, self.state.cutoff_s)
@@ -115,6 +105,16 @@ class EpisodeCore:
         self._set_tables(self._transposed(params.envelope))
         self._rows = np.arange(n)
         self._jittered, self._impacts, self._pushed, self._sensed = jittered, impacts, pushed, sensed
+
+    def __getstate__(self) -> dict[str, object]:
+        """What a copy or a pickle keeps: not the step's views of the tables nor the scratch, which
+        :meth:`__setstate__` makes again over the copied tables (the state rebuilds its own views)."""
+        return {name: value for name, value in self.__dict__.items()
+                if name not in ("_step_tables", "_step_model", "_block", "_pad")}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._set_tables(self.envelope_tables)
 
     def _set_tables(self, tables: np.ndarray) -> None:
         """Keep the look-ahead tables (K, R·c, S) and the step's views of them and of the plant's

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 
 import numpy as np
 
@@ -136,23 +137,59 @@ class EpisodeState:
     ints: np.ndarray  # the integer buffer
     layout: np.ndarray  # Slot entries, then the tables
 
+    def __getstate__(self) -> dict[str, object]:
+        """What a copy or a pickle keeps: the buffers and each field's shape, not the fields (a copy of
+        a view is an array of its own: the kernels would write the copied buffers, the fields not)."""
+        views = (*FLOAT_FIELDS, *INT_FIELDS)
+        state = {name: value for name, value in self.__dict__.items() if name not in views}
+        state["shapes"] = {name: self.__dict__[name].shape[1:] for name in views}
+        return state
 
-def allocate(envs: int, layout: np.ndarray, float_shapes: dict[Slot, tuple[int, ...]],
-             int_shapes: dict[Slot, tuple[int, ...]]) -> tuple[np.ndarray, np.ndarray, dict[Slot, np.ndarray]]:
-    """Both flat buffers (one record per environment) and a view (envs, *shape) of each field;
-    ``layout`` receives the fields' offsets within a record and the records' lengths."""
-    views: dict[Slot, np.ndarray] = {}
+    def __setstate__(self, state: dict[str, object]) -> None:
+        """The fields again as views into the copied buffers (:meth:`__getstate__`)."""
+        state = dict(state)
+        shapes = state.pop("shapes")
+        self.__dict__.update(state)
+        self.__dict__.update(field_views(self.floats, self.ints, self.layout, shapes))
+
+
+#: The fields of :class:`EpisodeState` that view the float buffer, in their order in a record,
+#: with the :class:`Slot` that holds each one's offset; then those of the integer buffer.
+FLOAT_FIELDS: dict[str, Slot] = {
+    "x": Slot.X, "last_command": Slot.LAST_COMMAND, "applied": Slot.APPLIED, "cutoff_s": Slot.CUTOFF,
+    "speed_at_cutoff": Slot.SPEED_AT_CUTOFF, "reward": Slot.REWARD, "envelope": Slot.ENVELOPE,
+    "commands": Slot.COMMANDS, "states": Slot.STATE_HISTORY, "normals": Slot.NORMAL_BLOCK,
+    "jitter_std": Slot.JITTER_STD, "impact_counts": Slot.IMPACT_COUNTS, "impact_std": Slot.IMPACT_STD}
+INT_FIELDS: dict[str, Slot] = {"step": Slot.STEP, "finished": Slot.FINISHED, "terminated": Slot.TERMINATED,
+                               "diverged": Slot.DIVERGED, "lag0": Slot.LAG0, "delay": Slot.DELAY}
+_BUFFERS = ((FLOAT_FIELDS, np.float64, Slot.FLOAT_RECORD), (INT_FIELDS, np.int64, Slot.INT_RECORD))
+
+
+def allocate(envs: int, layout: np.ndarray,
+             shapes: dict[str, tuple[int, ...]]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Both flat buffers (one record per environment, zeros) and a view (envs, *shape) of each field,
+    by name (``shapes`` gives every field's); ``layout`` receives the fields' offsets within a record
+    and the records' lengths."""
     buffers = []
-    for shapes, dtype, record in ((float_shapes, np.float64, Slot.FLOAT_RECORD), (int_shapes, np.int64, Slot.INT_RECORD)):
-        sizes = {slot: int(np.prod(shape)) for slot, shape in shapes.items()}
-        layout[record] = length = sum(sizes.values())
-        table = np.zeros((envs, length), dtype=dtype)
+    for fields, dtype, record in _BUFFERS:
         offset = 0
-        for slot, shape in shapes.items():
+        for name, slot in fields.items():
             layout[slot] = offset
-            view = table[:, offset:offset + sizes[slot]].reshape((envs, *shape))
-            assert view.base is not None and np.shares_memory(view, table) or not view.size
-            views[slot] = view
-            offset += sizes[slot]
-        buffers.append(table.reshape(-1))
-    return buffers[0], buffers[1], views
+            offset += math.prod(shapes[name])
+        layout[record] = offset
+        buffers.append(np.zeros(envs * offset, dtype=dtype))
+    return buffers[0], buffers[1], field_views(buffers[0], buffers[1], layout, shapes)
+
+
+def field_views(floats: np.ndarray, ints: np.ndarray, layout: np.ndarray,
+                shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray]:
+    """Each field, by name, as a view (envs, *shape) into its buffer at the offsets of ``layout``."""
+    views = {}
+    for (fields, _, record), buffer in zip(_BUFFERS, (floats, ints)):
+        table = buffer.reshape(int(layout[Slot.ENVS]), int(layout[record]))
+        for name, slot in fields.items():
+            start = int(layout[slot])
+            view = table[:, start:start + math.prod(shapes[name])].reshape((table.shape[0], *shapes[name]))
+            assert not view.size or np.shares_memory(view, buffer), name  # a view, not a copy
+            views[name] = view
+    return views
