@@ -25,7 +25,7 @@ import numpy as np
 from sail_env.core import kernels
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, log_ratio, succeeded
 from sail_env.core.spec import EpisodeSpec
-from sail_env.core.state import EpisodeState, Slot, allocate
+from sail_env.core.state import SIZES, EpisodeState, Slot, allocate
 
 OBSERVATION_LIMIT = kernels.OBSERVATION_LIMIT
 
@@ -77,26 +77,22 @@ class EpisodeCore:
         state_ring = spec.max_delay + 2 if delayed else 1
         delay_length = spec.n_steps + spec.max_delay + 2 if delayed else 0
         power = plant.input_names.index("beam_power") if "beam_power" in plant.input_names else -1
-        for slot, value in ((Slot.ENVS, n), (Slot.STATES, ns), (Slot.INPUTS, m), (Slot.COLUMNS, cols),
-                            (Slot.POWERS, params.step.shape[-2] // ns), (Slot.SPEED_ROWS, len(plant.velocity_rows)),
-                            (Slot.NOISE_STEPS, w), (Slot.JITTERED, jittered), (Slot.IMPACTS, impacts),
-                            (Slot.DELAY_LENGTH, delay_length), (Slot.COMMAND_RING, ring),
-                            (Slot.STATE_RING, state_ring), (Slot.HISTORY, spec.history_length),
-                            (Slot.WINDOW, spec.n_steps), (Slot.PUSHED, pushed), (Slot.SENSED, sensed),
-                            (Slot.POWER_INPUT, power), (Slot.GROUPS, len(groups)),
-                            (Slot.OBSERVATION, spec.observation_size), (Slot.NORMALS, sum(parts)),
-                            (Slot.JITTER_NORMALS, 0), (Slot.PUSH_NORMALS, parts[0]),
-                            (Slot.SENSOR_NORMALS, sum(parts[:2])), (Slot.IMPACT_NORMALS, sum(parts[:3]))):
-            layout[slot] = value
+        sizes = {"ENVS": n, "STATES": ns, "INPUTS": m, "COLUMNS": cols, "POWERS": params.step.shape[-2] // ns,
+                 "SPEED_ROWS": len(plant.velocity_rows), "NOISE_STEPS": w, "JITTERED": jittered,
+                 "JITTER_STEPS": w if jittered else 0, "IMPACTS": impacts, "IMPACT_STEPS": w if impacts else 0,
+                 "DELAY_LENGTH": delay_length, "COMMAND_RING": ring, "STATE_RING": state_ring,
+                 "HISTORY": spec.history_length, "WINDOW": spec.n_steps, "PUSHED": pushed, "SENSED": sensed,
+                 "POWER_INPUT": power, "GROUPS": len(groups), "OBSERVATION": spec.observation_size,
+                 "NORMALS": sum(parts), "JITTER_NORMALS": 0, "PUSH_NORMALS": parts[0],
+                 "SENSOR_NORMALS": sum(parts[:2]), "IMPACT_NORMALS": sum(parts[:3])}
+        assert sizes.keys() == SIZES.keys(), "every size of the layout is set here"
+        for name, value in sizes.items():
+            layout[Slot[name]] = value
         tables = [*(plant.jitter_inputs if jittered else ()), *plant.impulse_rows]
         for group in groups:
             tables += [group[0], group[1] if len(group) > 1 else -1]
         layout[int(Slot.TABLES):] = tables
-        floats, ints, views = allocate(n, layout, {
-            "x": (ns,), "last_command": (m,), "applied": (m,), "cutoff_s": (), "speed_at_cutoff": (), "reward": (),
-            "envelope": (), "commands": (ring, m), "states": (state_ring, ns), "normals": (sum(parts),),
-            "jitter_std": (w if jittered else 0,), "impact_counts": (w if impacts else 0,), "impact_std": (impacts,),
-            "step": (), "finished": (), "terminated": (), "diverged": (), "lag0": (), "delay": (delay_length,)})
+        floats, ints, views = allocate(layout)
         self.state = EpisodeState(**views, params=params, rngs=[None] * n, floats=floats, ints=ints, layout=layout)
         self.state.finished[:] = 1
         self.state.cutoff_s[:] = spec.config.beam_cutoff_s

@@ -33,8 +33,9 @@ def _actions(step: int, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def assert_same(actual: Any, expected: Any, where: str) -> None:
-    """``actual`` is ``expected`` bit for bit (also tests/envs/test_refusals.py): arrays and numbers in type, dtype, shape and bytes
-    (NaN payloads included), dicts key by key, sequences item by item."""
+    """``actual`` is ``expected`` bit for bit (tests/envs/test_refusals.py uses it too): arrays and
+    numbers in type, dtype, shape and bytes (NaN payloads included), dicts key by key, sequences item
+    by item."""
     assert type(actual) is type(expected), where
     if isinstance(expected, dict):
         assert actual.keys() == expected.keys(), where
