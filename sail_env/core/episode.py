@@ -217,8 +217,8 @@ class EpisodeCore:
         (N, D) float32, the rest into :attr:`state`. Returns how many episodes terminated; the caller
         then scores them (:meth:`score`). What the single env's hot path calls."""
         state = self.state
-        if action.dtype.kind == "f" and action.dtype.itemsize not in (4, 8):
-            action = action.astype(np.float64)  # float16, longdouble: the kernels take float32 and float64
+        if action.dtype.char in "eg":  # float16, longdouble: the kernels take the other real dtypes
+            action = action.astype(np.float64)
         ended = kernels.step(action, out, state.floats, state.ints, state.layout, self.consts, self._step_model,
                              self._step_tables, state.params.limits, self._block, self._pad)
         if ended < 0:
