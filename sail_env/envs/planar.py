@@ -178,8 +178,10 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def reset(self, *, seed: int | None = None,
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=reset_seeds(seed, 1)[0])
-        self.core.reset(_ONE, [self.np_random], reset_states(options, self.episode_spec, 1, arrays=False))
+        # Both arguments checked before anything changes: a refused reset leaves the env as it was.
+        seeds, given = reset_seeds(seed, 1), reset_states(options, self.episode_spec, 1, arrays=False)
+        super().reset(seed=seeds[0])
+        self.core.reset(_ONE, [self.np_random], given)
         if self.render_mode is not None:
             self._trajectory = [(self._time(), self.state.x[0].copy(), np.zeros(self.episode_spec.plant.n_inputs))]
         return self.core.observe()[0], self._info()
