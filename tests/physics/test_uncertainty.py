@@ -156,3 +156,36 @@ def test_without_a_spread_the_uncertainty_is_still_drawn():
     plant = UncertainPlant(UncertainTaskConfig(SAIL, **FLIGHT, uncertainty=TASK_UNCERTAINTY))
     factors = plant.factors(np.random.default_rng(0).random((50, plant.n_draws)))
     assert plant.n_draws == 5 and np.all(factors[:, :3] == 1.0) and np.abs(factors[:, 3] - 1).max() > 0.15
+
+
+@pytest.mark.parametrize("length_m", [3e6, 3e8])
+def test_random_draws_with_a_finite_diffraction_length_coast_to_a_score(length_m):
+    """Issue 42: with a short ``L0`` the spot widens ~200-fold over the coast; a draw whose model then
+    grows at ~60 /s overflowed within a 5 s piece, and the overflowed moments reached the eigensolver
+    (LinAlgError "Eigenvalues did not converge"; 9 of 40 random configurations). 40 random draws, zero
+    and random beam commands: every episode ends scored, its pointing finite or its divergence flagged."""
+    envs = gym.make_vec("LightSailUncertain-v1", num_envs=40, vectorization_mode="vector_entry_point",
+                        diffraction_length_m=length_m)
+    envs.reset(seed=0)
+    rng = np.random.default_rng(0)
+    pointings = []
+    for step in range(200):
+        actions = np.zeros(envs.action_space.shape) if step % 2 else rng.uniform(-1, 1, envs.action_space.shape)
+        _, reward, terminated, truncated, info = envs.step(actions.astype(np.float32))
+        assert np.isfinite(reward).all()
+        if terminated.any():  # a sail that left the beam in the window ended early (and restarted)
+            pointings.append(info["final_info"]["terminal_pointing_rad"][terminated])
+    pointing = np.concatenate(pointings)
+    assert len(pointing) >= 40 and not np.isnan(pointing).any()
+    envs.close()
+
+
+def test_the_issue_episode_with_a_short_diffraction_length_ends_diverged():
+    """The issue's reproduction: ``diffraction_length_m=3e6``, seed 1, 200 zero actions. Past ``L0`` the
+    spot's intensity falls as ``(L0/D)²`` and this draw's coast model grows at 63 /s: the sail leaves the
+    beam, which the episode reports (the realistic task's nominal sail diverges too at this ``L0``)."""
+    env = gym.make("LightSailUncertain-v1", diffraction_length_m=3e6)
+    env.reset(seed=1)
+    for _ in range(200):
+        _, reward, terminated, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
+    assert terminated and info["diverged"] and info["terminal_pointing_rad"] == np.inf
