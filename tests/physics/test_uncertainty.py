@@ -117,6 +117,40 @@ def test_bad_sizes_are_refused(fields, match):
         ModelUncertainty(**fields)
 
 
+@pytest.mark.parametrize("bias", [2.0 + 1e-9, 1e15, 1e300, float("inf"), np.float32(2.5)])
+def test_a_beam_offset_beyond_the_rim_is_refused_with_its_range(bias):
+    """Issue 42: 1e15 and 1e300 raised LinAlgError at reset, inf at ``gym.make``. The offset's half-width
+    ends at the aperture radius (2 m here): one ValueError naming the field and that range."""
+    with pytest.raises(ValueError, match=r"model_uncertainty\.pointing_bias_m must be a real number in \[0, "
+                                         r"aperture_radius_m.*beyond the rim"):
+        gym.make("LightSailUncertain-v1", model_uncertainty={"pointing_bias_m": bias})
+
+
+def test_a_beam_offset_up_to_the_rim_plays():
+    """At the limit (the spot centred on the rim) the sail leaves the beam, and the episode says so."""
+    env = gym.make("LightSailUncertain-v1", model_uncertainty={"pointing_bias_m": 2.0})
+    env.reset(seed=0)
+    for _ in range(200):
+        _, _, terminated, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
+        if terminated:
+            break
+    assert terminated and info["diverged"]
+
+
+def test_numpy_scalars_are_accepted_as_sizes_and_stored_as_floats():
+    """Issue 42: ``np.float32``, ``np.int64`` and ``np.float16`` were refused inside ``model_uncertainty``
+    (the docstring accepts NumPy real scalars everywhere); a NumPy bool is a bool."""
+    sizes = {"curvature": np.float32(0.2), "absorptivity": np.float16(0.5), "power": np.float64(0.2),
+             "pointing_bias_m": np.int64(0), "v0_draws": np.bool_(False)}
+    env = gym.make("LightSailUncertain-v1", model_uncertainty=sizes)
+    got = env.unwrapped.episode_spec.plant.uncertainty
+    for name, value in sizes.items():
+        assert type(getattr(got, name)) is (bool if name == "v0_draws" else float) and getattr(got, name) == value
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="model_uncertainty.curvature must be a real number in"):
+        ModelUncertainty(curvature=np.bool_(True))
+
+
 def test_bad_combinations_are_refused():
     with pytest.raises(ValueError, match="keep α <= 1"):
         UncertainTaskConfig(SAIL.replace(absorptivity=0.8, reflectivity=0.2), uncertainty=ModelUncertainty(absorptivity=0.5))

@@ -40,6 +40,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from sail_env.physics.config import boolean, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.memo import built_once
 from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidTaskConfig, RigidPlant
@@ -54,8 +55,13 @@ CURVATURE_NODES = 9
 UNCERTAIN_FIELDS = ("curvature", "absorptivity", "transmission", "bias_x", "bias_y")
 
 
-#: The sizes a :class:`ModelUncertainty` takes and their largest values.
+#: The sizes a :class:`ModelUncertainty` takes and their largest values (the beam offset's, the sail's
+#: aperture radius, is checked with the sail: :class:`UncertainTaskConfig`).
 SIZE_LIMITS = (("curvature", 0.5), ("absorptivity", 1.0), ("power", 0.5), ("pointing_bias_m", math.inf))
+#: Why the beam offset ends at the aperture radius ``a``: a constant offset beyond the rim centres the
+#: spot off the sail, where the model's linearisation about the centred spot (and its divergence rule,
+#: ``|X| ≤ a``) no longer describes it.
+BIAS_LIMIT_REASON = "a constant beam offset beyond the rim centres the spot off the sail"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,7 +72,8 @@ class ModelUncertainty:
         curvature: Relative half-width of the dish's radius of curvature, in [0, 0.5].
         absorptivity: Relative half-width of the absorptivity, in [0, 1] (the draw stays ``≤ 1``).
         power: Relative half-width of the power that reaches the sail, in [0, 0.5].
-        pointing_bias_m: Half-width [m] of a constant beam offset at the sail on each axis, ``≥ 0``.
+        pointing_bias_m: Half-width [m] of a constant beam offset at the sail on each axis, in
+            ``[0, a]`` with ``a`` the sail's aperture radius (:data:`BIAS_LIMIT_REASON`).
         v0_draws: Draw the factors as ``LightSailUncertain-v0`` did by mistake (lightsail-gym 0.3.0):
             every one uniform within ``1 ± parameter_spread`` whatever the sizes above (with the
             realistic spread of 0.1: curvature, absorptivity and power ±10 %, the beam offset ±10 %
@@ -82,11 +89,16 @@ class ModelUncertainty:
 
     def __post_init__(self) -> None:
         for name, high in SIZE_LIMITS:
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= high:
-                raise ValueError(f"model_uncertainty.{name} must be a real number in [0, {high}], got {value!r}")
-        if not isinstance(self.v0_draws, bool):
-            raise ValueError(f"model_uncertainty.v0_draws must be True or False, got {self.v0_draws!r}")
+            given = getattr(self, name)
+            try:
+                value = real_number(given, name)
+            except ValueError:
+                value = math.nan  # not a real number: refused below, with the field's range
+            if not (0 <= value <= high and math.isfinite(value)):
+                bound = f"[0, {high}]" if math.isfinite(high) else f"[0, aperture_radius_m] ({BIAS_LIMIT_REASON})"
+                raise ValueError(f"model_uncertainty.{name} must be a real number in {bound}, got {given!r}")
+            object.__setattr__(self, name, value)  # NumPy scalars and ints stored as float
+        object.__setattr__(self, "v0_draws", boolean(self.v0_draws, "model_uncertainty.v0_draws"))
 
     @property
     def active(self) -> bool:
@@ -112,6 +124,9 @@ class UncertainTaskConfig(RigidTaskConfig):
         if not isinstance(self.uncertainty, ModelUncertainty):
             raise ValueError(f"uncertainty must be a ModelUncertainty, got {self.uncertainty!r}")
         u, sail = self.uncertainty, self.sail
+        if not u.pointing_bias_m <= sail.aperture_radius_m:
+            raise ValueError(f"model_uncertainty.pointing_bias_m must be a real number in [0, aperture_radius_m = "
+                             f"{sail.aperture_radius_m} m] ({BIAS_LIMIT_REASON}), got {u.pointing_bias_m!r}")
         if u.curvature and sail.shape != "dish":
             raise ValueError(f"model_uncertainty.curvature needs the dish (sail_shape 'dish'), got {sail.shape!r}")
         low_r = sail.curvature_radius_m * (1 - u.curvature)
