@@ -234,8 +234,6 @@ class LightSail3DEnv(LightSailEnv):
     * v0 (lightsail-gym 0.1.0): initial release.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
-
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         self._start(rigid3d_spec(**kwargs), render_mode)
 
