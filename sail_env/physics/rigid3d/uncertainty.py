@@ -25,8 +25,14 @@ also does not observe. Every draw is cheap: no surface quadrature runs at a rese
 
 The draw's terms enter the model as differences from the nominal sail's, so a draw of all ones is
 exactly the nominal model. In a widened spot (beyond ``L0``) a draw takes the nominal sail's change
-with the spot plus its own difference at ``s = 1`` (second order in the draw times the widening, which
-the task's fastest draws keep below 1.2). The gyroscopic coupling ``I_a Ω / I_t`` is held at the
+with the spot plus its own difference at ``s = 1``, held at full strength while the nominal's terms fall
+with the intensity ``∝ 1/s²``. That is first order in the draw times the widening, not second: against a
+``RigidPlant`` of the drawn sail (R ×1.15, α ×1.4, power ×0.85) the coast's radiation terms are 1.3 % off
+at ``s = 1.03``, 4.8 % at 1.10 and 17 % at 1.24 (the task's fastest draws reach 1.22; ~19 % of its
+episodes widen before cut-off), 3.8 times the terms at ``s = 1.8``; far beyond ``L0`` the undiminished
+difference alone sets the model (a growth of 63 /s at ``L0 = 3e6`` m, issue 42). Scaling the difference
+by ``1/s²`` would cut these to 0.9 %, 2.8 %, 5.6 % and 10 %, but changes the numbers of the registered
+task's widening episodes: it waits for a new version. The gyroscopic coupling ``I_a Ω / I_t`` is held at the
 nominal dish's: it is 1.05e-2 rad/s at the task's 1 rad/s spin (1.7e-4 of the slow mode, 60.6 rad/s)
 and changes by −1.3 % to +2.5 % over ``R₀ ± 20 %``, 4e-6 of the slow mode.
 """
