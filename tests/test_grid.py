@@ -244,8 +244,10 @@ def _snapshot(folder: Path) -> list[str]:
     (["redo", "--agents", "lqr", "lqr"], "--agents: lqr given more than once"),
     (["render", "--readme", "missing.md"], "--readme missing.md: cannot read it"),
     (["render", "--readme", "plain.md"], "--readme plain.md: no <!-- grid-table:start -->"),
-    (["status"], "no grid yet (runs/grid.db does not exist): python -m agents.grid run creates it"),
-    (["render"], "no grid yet"),
+    (["status"], "no grid 'planar' yet (runs/grid.db does not exist): python -m agents.grid run --study planar "
+                 "creates it"),
+    (["status", "--study", "3d"], "no grid '3d' yet (runs/grid.db does not exist): python -m agents.grid run --study 3d"),
+    (["render"], "no grid 'planar' yet"),
     (["status", "--storage", "bogus://x"], "--storage bogus://x: cannot open it (NoSuchModuleError"),
     (["status", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),
     (["run", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),
