@@ -9,7 +9,12 @@ Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (keyed by env id, or
 or ``runs/<env>-<algo>-<seed>`` numbered ``_2``, ``_3``, … when that folder exists already
 (made atomically, so two runs started at once get two folders; ``runs/latest`` then points
 at the newest). A new run never writes into an old one;
-``--resume DIR`` continues the run in ``DIR`` from its newest checkpoint. A run directory holds:
+``--resume DIR`` continues the run in ``DIR`` from its newest checkpoint (PPO: from the end of the
+last rollout that checkpoint learnt from) to the budget it announces, with the run's own settings:
+``--timesteps`` extends it, ``--eval-freq``, ``--save-freq`` and ``--vec-env`` apply (said on the first
+line), any other run flag that differs from the run's is refused. Evaluations fall every
+``--eval-freq`` steps of the run (a resumed run evaluates where an uninterrupted one does) and at its
+end. A run directory holds:
 
     run.json                          versions, seed, configuration, one entry per session
     best_model.zip (+ _vecnormalize.pkl)   best evaluation success rate (mean return breaks ties)
@@ -110,8 +115,10 @@ def build_parser() -> cli.Parser:
     parser.add_argument("--out", type=Path, help="run directory (default: runs/<env>-<algo>-<seed>, numbered if taken)")
     parser.add_argument("--config", type=Path, help="Zoo-style hyperparameter YAML keyed by env id "
                                                     "(default: agents/hyperparams/<algo>.yml)")
-    parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its newest checkpoint")
-    parser.add_argument("--eval-freq", type=int, default=10_000, help="evaluate every N steps (<= 0: never)")
+    parser.add_argument("--resume", type=Path, metavar="DIR",
+                        help="continue the run in DIR from its newest checkpoint, with its settings (see above)")
+    parser.add_argument("--eval-freq", type=int, default=10_000, help="evaluate every N steps of the run and at its end "
+                                                                      "(<= 0: never)")
     parser.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes per evaluation")
     parser.add_argument("--save-freq", type=int, default=DEFAULT_SAVE_FREQ, help="checkpoint every N steps (<= 0: only at the end)")
     parser.add_argument("--no-progress-bar", action="store_true",
