@@ -168,8 +168,8 @@ def open_storage(url: str, heartbeat: int, grace: int, create: bool = True, stud
     """The grid's database; SQLite waits for its lock instead of failing at once.
 
     Without ``create`` a SQLite file that does not exist is refused (:class:`cli.UsageError`, naming
-    the grid ``study`` looked for), so that looking (``status``, ``render``) leaves no empty database behind. A URL or database
-    that cannot be opened is a one-line :class:`cli.UsageError` naming ``--storage``.
+    the grid ``study`` looked for), so that looking (``status``, ``render``) leaves no empty database
+    behind. A URL or database that cannot be opened is a one-line :class:`cli.UsageError` naming ``--storage``.
     """
     url = storage_url(url)
     file = sqlite_file(url)

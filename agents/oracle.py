@@ -94,7 +94,8 @@ class _OracleMixin:
         if self.env is None:
             raise RuntimeError(f"{self.name} reads the simulator's truth: attach(env) before acting")
         if self.acceleration is None:
-            raise RuntimeError(f"{self.name}: reset() after attach(env), before acting (it designs on the episode's draw)")
+            raise RuntimeError(f"{self.name}: reset() after attach(env), before acting (it designs on the "
+                               "episode's draw)")
         return super().act(observation)
 
     def _truth(self) -> EpisodeTruth:

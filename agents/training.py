@@ -57,8 +57,8 @@ import sail_env  # noqa: F401  (registers the env ids)
 from agents import cli
 from agents.cli import positive_int
 from agents.sb3 import (ALGOS, ON_POLICY, SCHEDULES, ModelLoadError, algo_kwargs, frame_stack_of, load_hyperparams,
-                        load_normalizer, normalize_kwargs, normalizer_path, one_thread_per_process, policy_of, save_model, schedule,
-                        unstacked_shape, versions)
+                        load_normalizer, normalize_kwargs, normalizer_path, one_thread_per_process, policy_of,
+                        save_model, schedule, unstacked_shape, versions)
 from agents.residual import ResidualVecEnv, residual_of
 from agents.shaping import PotentialShapingVecEnv, shaping_of
 from agents.vec_env import BatchedVecEnv
@@ -126,7 +126,7 @@ def build_parser() -> cli.Parser:
     return parser
 
 #: The ranges of the real-valued hyperparameters SB3 takes without checking them: ``(low, high,
-#: low included)`` (the high end included). Out of range, SB3 trains on regardless (``gamma: 1.5``
+#: low included)`` (a finite high end included, infinity not). Out of range, SB3 trains on regardless (``gamma: 1.5``
 #: overflows the returns' discounting and exits 0). A schedule (``lin_<number>``) is checked by its start.
 REAL_RANGES = {"gamma": (0.0, 1.0, True), "gae_lambda": (0.0, 1.0, True), "tau": (0.0, 1.0, False),
                "learning_rate": (0.0, math.inf, False), "clip_range": (0.0, math.inf, False),
@@ -144,7 +144,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     # Which run flags the command line gave (a default cannot contradict the run being resumed).
     unset, given = object(), build_parser()
     given.set_defaults(**dict.fromkeys(RUN_FLAGS, unset))
-    args.given = {flag for flag, value in vars(given.parse_args(argv)).items() if flag in RUN_FLAGS and value is not unset}
+    args.given = {flag for flag, value in vars(given.parse_args(argv)).items()
+                  if flag in RUN_FLAGS and value is not unset}
     if args.seed < 0:
         parser.error(f"argument --seed: must be >= 0, got {args.seed}")
     if args.resume is None and args.algo is None:
@@ -184,7 +185,7 @@ def resumed_config(args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]
     stored = {**{key: config[key] for key in CONFIG_KEYS & set(RUN_FLAGS)},
               "n_envs": config["hyperparams"].get("n_envs", 1), "config": config["hyperparams_file"],
               "out": str(args.resume)}
-    notes = []
+    notes: list[str] = []
     for flag in RUN_FLAGS:
         value = getattr(args, flag)
         if flag not in args.given or str(value) == str(stored[flag]):
@@ -214,7 +215,7 @@ def check_hyperparams(config: dict[str, Any]) -> None:
         except ValueError as err:
             raise ValueError(f"{where}: {err}") from err
         number = getattr(number, "start", number)  # a linear schedule's start
-        inside = isinstance(number, (int, float)) and not isinstance(number, bool) and (
+        inside = isinstance(number, (int, float)) and not isinstance(number, bool) and math.isfinite(number) and (
             low < number <= high or (low_included and number == low))
         if not inside:
             interval = f"{'[' if low_included else '('}{low:g}, {high:g}{']' if math.isfinite(high) else ')'}"

@@ -248,7 +248,8 @@ def _snapshot(folder: Path) -> list[str]:
     (["render", "--readme", "plain.md"], "--readme plain.md: no <!-- grid-table:start -->"),
     (["status"], "no grid 'planar' yet (runs/grid.db does not exist): python -m agents.grid run --study planar "
                  "creates it"),
-    (["status", "--study", "3d"], "no grid '3d' yet (runs/grid.db does not exist): python -m agents.grid run --study 3d"),
+    (["status", "--study", "3d"],
+     "no grid '3d' yet (runs/grid.db does not exist): python -m agents.grid run --study 3d"),
     (["render"], "no grid 'planar' yet"),
     (["status", "--storage", "bogus://x"], "--storage bogus://x: cannot open it (NoSuchModuleError"),
     (["status", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),

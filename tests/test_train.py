@@ -165,10 +165,12 @@ def test_bad_arguments_are_a_one_line_error(argv: list[str], message: str, capsy
     ("  n_timesteps: 100\n  gamma: 1.5\n", "gamma must be a number in [0, 1], got 1.5"),
     ("  n_timesteps: 100\n  gae_lambda: -0.1\n", "gae_lambda must be a number in [0, 1], got -0.1"),
     ("  n_timesteps: 100\n  learning_rate: 0.0\n", "learning_rate must be a number in (0, inf), got 0.0"),
-    ("  n_timesteps: 100\n  learning_rate: lin_-1.0e-3\n", "learning_rate must be a number in (0, inf), got 'lin_-1.0e-3'"),
+    ("  n_timesteps: 100\n  learning_rate: lin_-1.0e-3\n",
+     "learning_rate must be a number in (0, inf), got 'lin_-1.0e-3'"),
     ("  n_timesteps: 100\n  ent_coef: -0.01\n", "ent_coef must be a number in [0, inf), got -0.01"),
     ("  n_timesteps: 100\n  max_grad_norm: 0\n", "max_grad_norm must be a number in (0, inf), got 0"),
     ("  n_timesteps: 100\n  gamma: .nan\n", "gamma must be a number in [0, 1], got nan"),
+    ("  n_timesteps: 100\n  vf_coef: .inf\n", "vf_coef must be a number in [0, inf), got inf"),
     # Passes the checks, refused by SB3's constructor: the model is built before any folder is made.
     ("  n_timesteps: 100\n  clip_range_vf: -1.0\n", "ppo does not accept these hyperparameters"),
 ])
@@ -545,7 +547,8 @@ def test_resume_refuses_a_flag_that_contradicts_the_run_and_applies_the_others(
     assert train.main(["--resume", str(out), "--timesteps", "1024", "--algo", "ppo", "--seed", "0", "--n-envs", "2",
                        "--eval-freq", "0", "--save-freq", "0", "--no-progress-bar"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[:2] == ["resuming with --eval-freq 0 (the run had 256)", "resuming with --save-freq 0 (the run had 256)"]
+    assert lines[:2] == ["resuming with --eval-freq 0 (the run had 256)",
+                         "resuming with --save-freq 0 (the run had 256)"]
     with np.load(out / "evaluations.npz") as log:
         assert log["timesteps"].tolist() == [256, 512]  # none since the resume
     assert train.read_run(out)["config"]["eval_freq"] == 0
