@@ -156,7 +156,7 @@ def objective(algo: str, env_id: str, settings: dict[str, Any], runs_dir: Path,
                 raise optuna.TrialPruned(f"success {success_rate:.1%} at {timesteps} steps")
 
         run_dir, checkpoint = retried_folder(trial, config)
-        if checkpoint is not None and training.checkpoint_steps(checkpoint) >= training.whole_rollouts(
+        if checkpoint is not None and training.resume_point(run_dir, config, checkpoint) >= training.whole_rollouts(
                 algo, settings["timesteps"], config["hyperparams"]):
             return training.read_best(run_dir)["success_rate"]  # it had finished when its worker died
         if run_dir is None:
