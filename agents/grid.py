@@ -164,18 +164,18 @@ def sqlite_file(url: str) -> Path | None:
     return Path(file) if file and file != ":memory:" else None
 
 
-def open_storage(url: str, heartbeat: int, grace: int, create: bool = True) -> RDBStorage:
+def open_storage(url: str, heartbeat: int, grace: int, create: bool = True, study: str = DEFAULT_STUDY) -> RDBStorage:
     """The grid's database; SQLite waits for its lock instead of failing at once.
 
-    Without ``create`` a SQLite file that does not exist is refused (:class:`cli.UsageError`),
-    so that looking (``status``, ``render``) leaves no empty database behind. A URL or database
-    that cannot be opened is a one-line :class:`cli.UsageError` naming ``--storage``.
+    Without ``create`` a SQLite file that does not exist is refused (:class:`cli.UsageError`, naming
+    the grid ``study`` looked for), so that looking (``status``, ``render``) leaves no empty database
+    behind. A URL or database that cannot be opened is a one-line :class:`cli.UsageError` naming ``--storage``.
     """
     url = storage_url(url)
     file = sqlite_file(url)
     if file is not None and not create and not file.is_file():
-        raise cli.UsageError(f"--storage {url}: no grid yet ({file} does not exist): "
-                             "python -m agents.grid run creates it")
+        raise cli.UsageError(f"--storage {url}: no grid {study!r} yet ({file} does not exist): "
+                             f"python -m agents.grid run --study {study} creates it")
     if file is not None and create:
         cli.check_writable_dir(file.parent, "--storage")
         file.parent.mkdir(parents=True, exist_ok=True)
@@ -644,7 +644,8 @@ def main(argv: list[str] | None = None) -> int:
         trials = kept.read(args.file, args.study, "--file") if args.command == "import" else None
         if trials is not None and not isinstance(trials.get("user_attrs", {}).get("settings"), dict):
             raise cli.UsageError(f"--file {args.file}: no grid settings (a tuning study's export?)")
-        storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command in ("run", "import"))
+        storage = open_storage(args.storage, args.heartbeat, args.grace, create=args.command in ("run", "import"),
+                               study=args.study)
         if args.command == "import":
             added, waiting = import_grid(storage, args.study, trials)
             print(f"grid {args.study}: {added} finished cells imported, {waiting} queued")

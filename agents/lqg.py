@@ -29,6 +29,7 @@ import dataclasses
 import numpy as np
 import scipy.linalg
 
+from agents.base import check_observation
 from agents.lqr import INPUT_WEIGHT, lqr_gain, state_weights
 from sail_env.core.delay import arrived_commands
 from sail_env.core.spec import EpisodeSpec
@@ -204,6 +205,7 @@ class LQGAgent:
     def command(self, observations: np.ndarray) -> np.ndarray:
         """The beam input (N, m) [SI] for observations (N, D), remembered as sent; the filter's
         innovation (the measurement minus its prediction) is left in :attr:`innovation`."""
+        check_observation(self.spec, observations, self.name)
         measured, shown = self.measure(observations)
         # The filter's state: the measured one, then any estimated offsets (zero at the start).
         start = np.pad(measured, ((0, 0), (0, self.design.phi.shape[-1] - measured.shape[1])))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from agents.base import check_observation
 from sail_env.core.spec import EpisodeSpec
 from sail_env.physics.linear import LinearModel
 
@@ -68,6 +69,7 @@ class LQRAgent:
                              state_weights(spec))
 
     def act(self, observation: np.ndarray) -> np.ndarray:
+        check_observation(self.spec, observation, self.name)
         return self.spec.input_to_action(-self.spec.observation_to_state(observation) @ self.gain.T)
 
     def reset(self, which: np.ndarray | None = None) -> None:

@@ -74,12 +74,29 @@ class _OracleMixin:
     acceleration: np.ndarray | None = None
 
     def attach(self, env: gym.Env | gym.vector.VectorEnv) -> None:
-        """Use ``env``'s truth (call before its first reset's :meth:`reset`)."""
-        plant = env.unwrapped.episode_spec.plant
+        """Use ``env``'s truth (call before its first reset's :meth:`reset`): a lightsail-gym env, or its
+        batched vector env. SB3's and Gymnasium's one-env-at-a-time vector envs (``"sync"``, ``"async"``)
+        hide their envs' episode state: refused."""
+        spec = getattr(env.unwrapped, "episode_spec", None)
+        if spec is None or not hasattr(env.unwrapped, "state"):
+            raise ValueError(f"attach: {self.name} reads the episode state of a lightsail-gym env or of its batched "
+                             "vector env (gym.make_vec(..., vectorization_mode='vector_entry_point')), "
+                             f"not of {type(env.unwrapped).__name__}")
+        plant = spec.plant
         if (plant.n_states, plant.n_inputs) != (self.spec.plant.n_states, self.spec.plant.n_inputs):
             raise ValueError(f"attach: the env's plant has {plant.n_states} states and {plant.n_inputs} inputs, "
                              f"the agent's {self.spec.plant.n_states} and {self.spec.plant.n_inputs}")
-        self.env = env
+        self.env, self.acceleration = env, None  # designed on this env's draw at the next reset
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        """As the LQG's, once designed on the attached env's episode: unattached, ``lqg-oracle`` played
+        the nominal LQG under the oracle's name."""
+        if self.env is None:
+            raise RuntimeError(f"{self.name} reads the simulator's truth: attach(env) before acting")
+        if self.acceleration is None:
+            raise RuntimeError(f"{self.name}: reset() after attach(env), before acting (it designs on the "
+                               "episode's draw)")
+        return super().act(observation)
 
     def _truth(self) -> EpisodeTruth:
         if self.env is None:

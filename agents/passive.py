@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from agents.base import check_observation
 from sail_env.core.spec import EpisodeSpec
 
 
@@ -13,9 +14,10 @@ class PassiveAgent:
     name = "passive"
 
     def __init__(self, spec: EpisodeSpec) -> None:
-        self.n_inputs = len(spec.action_scale)
+        self.spec, self.n_inputs = spec, len(spec.action_scale)
 
     def act(self, observation: np.ndarray) -> np.ndarray:
+        check_observation(self.spec, observation, self.name)
         return np.zeros((*np.shape(observation)[:-1], self.n_inputs), dtype=np.float32)
 
     def reset(self) -> None:

@@ -65,7 +65,7 @@ def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> 
     try:
         table = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as err:
-        raise ValueError(f"{path}: cannot read hyperparameters ({type(err).__name__})") from err
+        raise ValueError(f"{path}: cannot read hyperparameters ({yaml_problem(err)})") from err
     if not isinstance(table, dict) or env_id not in table:
         known = sorted(table) if isinstance(table, dict) else []
         raise ValueError(f"{path}: no entry for {env_id!r} (has {known})")
@@ -74,6 +74,15 @@ def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> 
         raise ValueError(f"{path} [{env_id}]: the entry must be a mapping of hyperparameters (key: value lines), "
                          f"got {type(entry).__name__} {entry!r}")
     return dict(entry)
+
+
+def yaml_problem(err: Exception) -> str:
+    """What went wrong reading a file, and where for a YAML error: ``ParserError: expected <block end>,
+    but found '<block mapping start>' at line 4, column 3``."""
+    mark = getattr(err, "problem_mark", None)
+    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    problem = getattr(err, "problem", None) or getattr(err, "strerror", None)
+    return f"{type(err).__name__}: {problem}{where}" if problem else type(err).__name__
 
 
 def policy_kwargs(value: str | dict[str, Any] | None) -> dict[str, Any]:

@@ -9,7 +9,12 @@ Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (keyed by env id, or
 or ``runs/<env>-<algo>-<seed>`` numbered ``_2``, ``_3``, … when that folder exists already
 (made atomically, so two runs started at once get two folders; ``runs/latest`` then points
 at the newest). A new run never writes into an old one;
-``--resume DIR`` continues the run in ``DIR`` from its newest checkpoint. A run directory holds:
+``--resume DIR`` continues the run in ``DIR`` from its newest checkpoint (PPO: from the end of the
+last rollout that checkpoint learnt from) to the budget it announces, with the run's own settings:
+``--timesteps`` extends it, ``--eval-freq``, ``--save-freq`` and ``--vec-env`` apply (said on the first
+line), any other run flag that differs from the run's is refused. Evaluations fall every
+``--eval-freq`` steps of the run (a resumed run evaluates where an uninterrupted one does) and at its
+end. A run directory holds:
 
     run.json                          versions, seed, configuration, one entry per session
     best_model.zip (+ _vecnormalize.pkl)   best evaluation success rate (mean return breaks ties)
@@ -43,6 +48,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.save_util import load_from_zip_file
+from stable_baselines3.common.type_aliases import TrainFrequencyUnit
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import (DummyVecEnv, SubprocVecEnv, VecEnv, VecFrameStack, VecMonitor,
                                               VecNormalize)
@@ -50,9 +56,9 @@ from stable_baselines3.common.vec_env import (DummyVecEnv, SubprocVecEnv, VecEnv
 import sail_env  # noqa: F401  (registers the env ids)
 from agents import cli
 from agents.cli import positive_int
-from agents.sb3 import (ALGOS, ON_POLICY, ModelLoadError, algo_kwargs, frame_stack_of, load_hyperparams, load_normalizer,
-                        normalize_kwargs, normalizer_path, one_thread_per_process, policy_of, save_model, unstacked_shape,
-                        versions)
+from agents.sb3 import (ALGOS, ON_POLICY, SCHEDULES, ModelLoadError, algo_kwargs, frame_stack_of, load_hyperparams,
+                        load_normalizer, normalize_kwargs, normalizer_path, one_thread_per_process, policy_of,
+                        save_model, schedule, unstacked_shape, versions)
 from agents.residual import ResidualVecEnv, residual_of
 from agents.shaping import PotentialShapingVecEnv, shaping_of
 from agents.vec_env import BatchedVecEnv
@@ -84,7 +90,17 @@ WHOLE_NUMBER_MINIMUMS = {"n_timesteps": 1, "n_envs": 1, "frame_stack": 1, "n_ste
                          "target_update_interval": 1, "policy_delay": 1, "sde_sample_freq": -1}
 
 
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
+#: The flags that set up a run, as argparse names them: ``--resume`` takes them from the stored run.
+#: A given one that contradicts it is refused, except those in :data:`RESUME_APPLIES`.
+RUN_FLAGS = ("algo", "env", "seed", "n_envs", "vec_env", "out", "config", "eval_freq", "eval_episodes", "save_freq")
+#: Flags a resumed run applies (and says so): they change how it continues, not what it trains. The
+#: batched and one-env-at-a-time wrappers play the same episodes; the evaluation schedule counts
+#: total steps whatever its frequency.
+RESUME_APPLIES = ("vec_env", "eval_freq", "save_freq")
+
+
+def build_parser() -> cli.Parser:
+    """train.py's command line."""
     parser = cli.Parser(prog="train.py", description=cli.describe(__doc__), formatter_class=cli.HelpFormatter,
                         epilog=f"env ids: {', '.join(TASKS)}")
     parser.add_argument("--algo", choices=sorted(ALGOS), help="required unless --resume")
@@ -99,13 +115,37 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--out", type=Path, help="run directory (default: runs/<env>-<algo>-<seed>, numbered if taken)")
     parser.add_argument("--config", type=Path, help="Zoo-style hyperparameter YAML keyed by env id "
                                                     "(default: agents/hyperparams/<algo>.yml)")
-    parser.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR from its newest checkpoint")
-    parser.add_argument("--eval-freq", type=int, default=10_000, help="evaluate every N steps (<= 0: never)")
+    parser.add_argument("--resume", type=Path, metavar="DIR",
+                        help="continue the run in DIR from its newest checkpoint, with its settings (see above)")
+    parser.add_argument("--eval-freq", type=int, default=10_000, help="evaluate every N steps of the run and at its end "
+                                                                      "(<= 0: never)")
     parser.add_argument("--eval-episodes", type=positive_int, default=100, help="episodes per evaluation")
     parser.add_argument("--save-freq", type=int, default=DEFAULT_SAVE_FREQ, help="checkpoint every N steps (<= 0: only at the end)")
     parser.add_argument("--no-progress-bar", action="store_true",
                         help="no bar on a terminal (without one, as in a log file, the evaluations' lines show progress)")
+    return parser
+
+#: The ranges of the real-valued hyperparameters SB3 takes without checking them: ``(low, high,
+#: low included)`` (a finite high end included, infinity not). Out of range, SB3 trains on regardless (``gamma: 1.5``
+#: overflows the returns' discounting and exits 0). A schedule (``lin_<number>``) is checked by its start.
+REAL_RANGES = {"gamma": (0.0, 1.0, True), "gae_lambda": (0.0, 1.0, True), "tau": (0.0, 1.0, False),
+               "learning_rate": (0.0, math.inf, False), "clip_range": (0.0, math.inf, False),
+               "ent_coef": (0.0, math.inf, True), "vf_coef": (0.0, math.inf, True),
+               "max_grad_norm": (0.0, math.inf, False), "target_kl": (0.0, math.inf, False),
+               "noise_std": (0.0, math.inf, True), "target_policy_noise": (0.0, math.inf, True),
+               "target_noise_clip": (0.0, math.inf, True)}
+#: Those SB3 also accepts as None (off) or as text (SAC's ``ent_coef: auto``, ``auto_0.1``: SB3's own check).
+REAL_OPTIONAL = {"target_kl": (type(None),), "ent_coef": (str,)}
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = build_parser()
     args = parser.parse_args(argv)
+    # Which run flags the command line gave (a default cannot contradict the run being resumed).
+    unset, given = object(), build_parser()
+    given.set_defaults(**dict.fromkeys(RUN_FLAGS, unset))
+    args.given = {flag for flag, value in vars(given.parse_args(argv)).items()
+                  if flag in RUN_FLAGS and value is not unset}
     if args.seed < 0:
         parser.error(f"argument --seed: must be >= 0, got {args.seed}")
     if args.resume is None and args.algo is None:
@@ -113,29 +153,52 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return args
 
 
-def run_config(args: argparse.Namespace) -> dict[str, Any]:
-    """Algo, env, seed and hyperparameters: from the YAML and flags, or from the run being resumed."""
+def run_config(args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
+    """Algo, env, seed and hyperparameters: from the YAML and flags, or from the run being resumed;
+    and, for a resumed run, one line for each flag it applies (:func:`resumed_config`)."""
     if args.resume is not None:
-        try:
-            config = json.loads((args.resume / "run.json").read_text())["config"]
-        except (OSError, ValueError, KeyError) as err:
-            raise ModelLoadError(f"{args.resume / 'run.json'}: cannot read the run to resume ({type(err).__name__})") from err
-        missing = sorted(CONFIG_KEYS - set(config))
-        if missing:
-            raise ModelLoadError(f"{args.resume / 'run.json'}: not a run configuration (lacks {', '.join(missing)})")
-        if args.timesteps is not None:
-            config["hyperparams"]["n_timesteps"] = args.timesteps
-        return config
+        return resumed_config(args)
     hyperparams = load_hyperparams(args.algo, args.env, args.config)
     if args.timesteps is not None:
         hyperparams["n_timesteps"] = args.timesteps
     if args.n_envs is not None:
         hyperparams["n_envs"] = args.n_envs
     config = {"algo": args.algo, "env": args.env, "seed": args.seed, "vec_env": args.vec_env,
-            "eval_freq": args.eval_freq, "eval_episodes": args.eval_episodes, "save_freq": args.save_freq,
-            "hyperparams_file": str(args.config or f"agents/hyperparams/{args.algo}.yml"),
-            "hyperparams": hyperparams}
-    return config
+              "eval_freq": args.eval_freq, "eval_episodes": args.eval_episodes, "save_freq": args.save_freq,
+              "hyperparams_file": str(args.config or f"agents/hyperparams/{args.algo}.yml"),
+              "hyperparams": hyperparams}
+    return config, []
+
+
+def resumed_config(args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
+    """The stored configuration of the run in ``args.resume``, with ``--timesteps`` and the flags of
+    :data:`RESUME_APPLIES` that the command line gave applied (one line each says so). Any other run
+    flag given with a value other than the run's is refused (:class:`cli.UsageError`): it used to be
+    ignored without a word (``--algo sac`` resumed a PPO run as PPO)."""
+    try:
+        config = json.loads((args.resume / "run.json").read_text())["config"]
+    except (OSError, ValueError, KeyError) as err:
+        raise ModelLoadError(f"{args.resume / 'run.json'}: cannot read the run to resume ({type(err).__name__})") from err
+    missing = sorted(CONFIG_KEYS - set(config))
+    if missing:
+        raise ModelLoadError(f"{args.resume / 'run.json'}: not a run configuration (lacks {', '.join(missing)})")
+    stored = {**{key: config[key] for key in CONFIG_KEYS & set(RUN_FLAGS)},
+              "n_envs": config["hyperparams"].get("n_envs", 1), "config": config["hyperparams_file"],
+              "out": str(args.resume)}
+    notes: list[str] = []
+    for flag in RUN_FLAGS:
+        value = getattr(args, flag)
+        if flag not in args.given or str(value) == str(stored[flag]):
+            continue
+        option = f"--{flag.replace('_', '-')} {value}"
+        if flag not in RESUME_APPLIES:
+            raise cli.UsageError(f"{option} contradicts the run in {args.resume} ({stored[flag]}): a resumed run keeps "
+                                 "it (leave the flag out, or start a new run)")
+        config[flag] = value
+        notes.append(f"resuming with {option} (the run had {stored[flag]})")
+    if args.timesteps is not None:
+        config["hyperparams"]["n_timesteps"] = args.timesteps
+    return config, notes
 
 
 def check_hyperparams(config: dict[str, Any]) -> None:
@@ -143,6 +206,20 @@ def check_hyperparams(config: dict[str, Any]) -> None:
     algo, hp, where = config["algo"], config["hyperparams"], f"{config['hyperparams_file']} [{config['env']}]"
     if "n_timesteps" not in hp:
         raise ValueError(f"{where}: n_timesteps is missing")
+    for key, (low, high, low_included) in REAL_RANGES.items():
+        value = hp.get(key)
+        if key not in hp or isinstance(value, REAL_OPTIONAL.get(key, ())):
+            continue
+        try:
+            number = schedule(key, value) if key in SCHEDULES else value
+        except ValueError as err:
+            raise ValueError(f"{where}: {err}") from err
+        number = getattr(number, "start", number)  # a linear schedule's start
+        inside = isinstance(number, (int, float)) and not isinstance(number, bool) and math.isfinite(number) and (
+            low < number <= high or (low_included and number == low))
+        if not inside:
+            interval = f"{'[' if low_included else '('}{low:g}, {high:g}{']' if math.isfinite(high) else ')'}"
+            raise ValueError(f"{where}: {key} must be a number in {interval}, got {value!r}")
     for key, least in WHOLE_NUMBER_MINIMUMS.items():
         value = hp.get(key)
         if value is None or (key == "train_freq" and isinstance(value, (list, tuple))):  # (n, "episode"): SB3's check
@@ -315,6 +392,27 @@ def resumable_checkpoint(run_dir: Path, hyperparams: dict[str, Any]) -> Path:
     raise ModelLoadError(f"{run_dir / 'checkpoints'}: no complete checkpoint to resume from")
 
 
+def resume_point(run_dir: Path, config: dict[str, Any], checkpoint: Path) -> int:
+    """The step count a run resumed from ``checkpoint`` continues from: its steps, or for PPO the end of
+    the last rollout the checkpoint's weights have learned from.
+
+    PPO learns at the end of each whole rollout of ``n_steps × n_envs``. A checkpoint written inside
+    one (Ctrl-C, SIGTERM, a kill after a ``save_freq`` checkpoint that is not a whole number of
+    rollouts), or at its last step (before its update), holds the weights of the rollouts before:
+    continuing its step count, the run trained more than the budget it announced (rollouts from an
+    odd start overshoot it), learnt nothing from the interrupted rollout, and evaluated at other
+    points than an uninterrupted run. Only a session's final checkpoint has learnt its last rollout.
+    """
+    steps = checkpoint_steps(checkpoint)
+    if config["algo"] not in ON_POLICY:
+        return steps
+    sessions = read_run(run_dir).get("sessions", [])
+    if any(s.get("status") == "finished" and s.get("timesteps") == steps for s in sessions):
+        return steps
+    rollout = rollout_steps(config["algo"], config["hyperparams"])
+    return max(steps - 1, 0) // rollout * rollout
+
+
 def save_checkpoint(model: BaseAlgorithm, run_dir: Path) -> Path:
     """Model, normaliser and replay buffer under the names CheckpointCallback uses."""
     path = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{model.num_timesteps}_steps.zip"
@@ -322,6 +420,45 @@ def save_checkpoint(model: BaseAlgorithm, run_dir: Path) -> Path:
     if getattr(model, "replay_buffer", None) is not None:
         model.save_replay_buffer(path.with_name(f"{CHECKPOINT_PREFIX}_replay_buffer_{model.num_timesteps}_steps.pkl"))
     return path
+
+
+class EvalOnTotalSteps(EvalCallback):
+    """SB3's EvalCallback on a schedule of the run's env steps (every ``every`` of them), not of this
+    session's calls: a resumed run evaluates at the points an uninterrupted one does (counted from the
+    resume, a run resumed at 1,000 of 2,048 steps with ``--eval-freq 2048`` never evaluated and left
+    no best model). :meth:`evaluate_final` evaluates the model a session ends with, if no evaluation
+    did at its step count."""
+
+    def __init__(self, eval_env: VecEnv, every: int, **kwargs: Any) -> None:
+        super().__init__(eval_env, eval_freq=1, **kwargs)  # every call passes SB3's own schedule
+        self.every = every
+
+    def _on_step(self) -> bool:
+        return self.num_timesteps % self.every != 0 or super()._on_step()
+
+    def evaluate_final(self) -> None:
+        """Evaluate the trained model unless an evaluation has at its step count (a short budget,
+        ``--eval-freq`` above it or not dividing it): every run that evaluates ends with a best model."""
+        if self.model.num_timesteps not in self.evaluations_timesteps[-1:]:
+            self.num_timesteps = self.model.num_timesteps
+            super()._on_step()
+
+
+class StopAtBudget(BaseCallback):
+    """Ends an off-policy session at ``total`` steps. SB3 collects ``train_freq`` steps between updates
+    and stops only at the end of such a chunk: from a resume inside one, the run overshot its
+    budget. A chunk that ends at the budget ends it (its update is made); one cut at the budget is
+    not learnt from (fewer than ``train_freq`` steps' updates)."""
+
+    def __init__(self, total: int, start: int) -> None:
+        super().__init__()
+        self.total, self.start = total, start
+
+    def _on_step(self) -> bool:
+        frequency = self.model.train_freq
+        chunk = frequency.frequency * self.training_env.num_envs if frequency.unit == TrainFrequencyUnit.STEP else None
+        at_chunk_end = chunk is not None and (self.num_timesteps - self.start) % chunk == 0
+        return self.num_timesteps < self.total or at_chunk_end
 
 
 class KeepBestBySuccess(BaseCallback):
@@ -413,7 +550,7 @@ def prepare(config: dict[str, Any], resume_dir: Path | None = None) -> Setup:
     hp = config["hyperparams"]
     n_envs, normalize, gamma = int(hp.get("n_envs", 1)), normalize_kwargs(hp.get("normalize", False)), hp.get("gamma", 0.99)
     resume_from = resumable_checkpoint(resume_dir, hp) if resume_dir is not None else None
-    offset = checkpoint_steps(resume_from) if resume_from else 0
+    offset = resume_point(resume_dir, config, resume_from) if resume_from else 0
     total = whole_rollouts(algo, int(hp["n_timesteps"]), hp)
     if resume_from is not None and offset >= total:
         raise ValueError(f"{resume_dir} has trained its {offset} steps: give --timesteps above {offset} to extend it")
@@ -432,11 +569,16 @@ def prepare(config: dict[str, Any], resume_dir: Path | None = None) -> Setup:
                         training=False, frame_stack=frame_stack_of(hp), residual=residual_of(hp),
                         shaping=shaping_of(hp))
     try:
-        return Setup(build_model(config, train_env, resume_from), train_env, eval_env, resume_from)
+        model = build_model(config, train_env, resume_from)
     except BaseException:
         train_env.close()
         eval_env.close()
         raise
+    if resume_from is not None and offset != checkpoint_steps(resume_from):
+        print(f"resuming {resume_from.name} at {offset:,} steps, the end of the last rollout it learnt from "
+              f"({algo} learns from whole rollouts of {rollout_steps(algo, hp):,} steps)", flush=True)
+    model.num_timesteps = offset
+    return Setup(model, train_env, eval_env, resume_from)
 
 
 def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: str, progress_bar: bool = False,
@@ -452,16 +594,18 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
         if config["save_freq"] > 0:
             callbacks.append(CheckpointCallback(max(config["save_freq"] // n_envs, 1), str(run_dir / "checkpoints"),
                                                 CHECKPOINT_PREFIX, save_replay_buffer=True, save_vecnormalize=True))
+        evaluator = None
         if config["eval_freq"] > 0:
             setup.eval_env.seed(seed + EVAL_SEED_OFFSET)
-            evaluator = EvalCallback(
-                setup.eval_env, n_eval_episodes=config["eval_episodes"],
-                eval_freq=max(config["eval_freq"] // n_envs, 1), log_path=str(run_dir), best_model_save_path=None,
-                deterministic=True, verbose=0,
+            evaluator = EvalOnTotalSteps(
+                setup.eval_env, max(config["eval_freq"] // n_envs, 1) * n_envs, n_eval_episodes=config["eval_episodes"],
+                log_path=str(run_dir), best_model_save_path=None, deterministic=True, verbose=0,
                 callback_after_eval=KeepBestBySuccess(run_dir, seed + EVAL_SEED_OFFSET, on_evaluation))
             if setup.resumed_from is not None:
                 continue_history(evaluator, run_dir / "evaluations.npz", model.num_timesteps)
             callbacks.append(evaluator)
+        if config["algo"] not in ON_POLICY:
+            callbacks.append(StopAtBudget(total, model.num_timesteps))
 
         sessions = read_run(run_dir)["sessions"] if setup.resumed_from else []
         session = {"command": command, "status": "running", "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
@@ -474,6 +618,8 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
                         reset_num_timesteps=setup.resumed_from is None, progress_bar=progress_bar)
             if stop_requested() is not None and model.num_timesteps < total:  # a signal in the last step: finished
                 status = "interrupted"
+            elif evaluator is not None:
+                evaluator.evaluate_final()
         except KeyboardInterrupt:
             status = "interrupted"
         except BaseException:
@@ -559,7 +705,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     try:
         args = parse_args(argv)
-        config = run_config(args)
+        config, notes = run_config(args)
         check_hyperparams(config)
         check_run_folder(args)
         setup = prepare(config, args.resume)
@@ -571,7 +717,7 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as err:  # the folder changed since it was checked
         setup.close()
         return cli.fail(f"cannot create the run folder ({err})")
-    print(header(config, run_dir, args.resume is not None), flush=True)
+    print("\n".join([*notes, header(config, run_dir, args.resume is not None)]), flush=True)
     try:
         if args.resume is None and args.out is None:
             point_latest(run_dir)

@@ -35,6 +35,7 @@ episodes with the batched env. The sampler, pruner and storage are Optuna's own.
 
 from __future__ import annotations
 
+import math
 import sys
 import warnings
 from pathlib import Path
@@ -155,7 +156,7 @@ def objective(algo: str, env_id: str, settings: dict[str, Any], runs_dir: Path,
                 raise optuna.TrialPruned(f"success {success_rate:.1%} at {timesteps} steps")
 
         run_dir, checkpoint = retried_folder(trial, config)
-        if checkpoint is not None and training.checkpoint_steps(checkpoint) >= training.whole_rollouts(
+        if checkpoint is not None and training.resume_point(run_dir, config, checkpoint) >= training.whole_rollouts(
                 algo, settings["timesteps"], config["hyperparams"]):
             return training.read_best(run_dir)["success_rate"]  # it had finished when its worker died
         if run_dir is None:
@@ -201,6 +202,9 @@ def configuration(algo: str, base: str | None, assignments: list[str]) -> dict[s
         optuna.logging.set_verbosity(verbosity)
     SAMPLERS[algo](drawn)
     residual(drawn, base)
+    for key, distribution in drawn.distributions.items():
+        if key in params:
+            params[key] = typed(key, params[key], distribution)
     missing, unknown = sorted(set(drawn.params) - set(params)), sorted(set(params) - set(drawn.params))
     if missing or unknown:
         raise cli.UsageError(f"--enqueue: {algo}'s search space is {', '.join(sorted(drawn.params))}"
@@ -215,6 +219,24 @@ def configuration(algo: str, base: str | None, assignments: list[str]) -> dict[s
         except (ValueError, UserWarning) as err:
             raise cli.UsageError(f"--enqueue: {err}") from err
     return params
+
+
+def typed(key: str, value: Any, distribution: optuna.distributions.BaseDistribution) -> Any:
+    """``value`` of an ``--enqueue`` item as the number its parameter's range takes. YAML 1.1 reads
+    ``3e-4`` (no dot) as text: queued as the string ``'3e-4'``, the trial failed when it trained."""
+    if not isinstance(distribution, (optuna.distributions.FloatDistribution, optuna.distributions.IntDistribution)):
+        return value  # a categorical parameter: the FixedTrial check names its choices
+    kind = float if isinstance(distribution, optuna.distributions.FloatDistribution) else int
+    number = value
+    if isinstance(value, str):
+        try:
+            number = kind(value)
+        except ValueError:
+            number = None
+    if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(number) \
+            or number != kind(number):
+        raise cli.UsageError(f"--enqueue {key}={value}: {key} must be {'a' if kind is float else 'a whole'} number")
+    return kind(number)
 
 
 def best_yaml(study: optuna.Study, env_id: str) -> str:

@@ -206,7 +206,9 @@ def test_two_workers_run_every_cell_once_and_finish_a_killed_workers_cell(backen
             # checkpoint had completed it, and once in CI one killed a rollout short had finished).
             saved = [int(p.stem.split("_")[-2]) for p in Path(started[-1][1]).glob(
                 "checkpoints/rl_model_vecnormalize_*_steps.pkl")] if started else []
-            if saved and max(saved) <= BUDGET_STEPS - 2 * 2048:
+            # At least two rollouts in: a checkpoint at a rollout's last step holds the weights from
+            # before its update, and the cell resumes from the rollout's start (training.resume_point).
+            if saved and 2 * 2048 <= max(saved) <= BUDGET_STEPS - 2 * 2048:
                 victim, (killed_worker, survivor) = started[-1][0], (workers[i], workers[1 - i])
                 killed_worker.send_signal(signal.SIGKILL)
                 break
@@ -244,8 +246,11 @@ def _snapshot(folder: Path) -> list[str]:
     (["redo", "--agents", "lqr", "lqr"], "--agents: lqr given more than once"),
     (["render", "--readme", "missing.md"], "--readme missing.md: cannot read it"),
     (["render", "--readme", "plain.md"], "--readme plain.md: no <!-- grid-table:start -->"),
-    (["status"], "no grid yet (runs/grid.db does not exist): python -m agents.grid run creates it"),
-    (["render"], "no grid yet"),
+    (["status"], "no grid 'planar' yet (runs/grid.db does not exist): python -m agents.grid run --study planar "
+                 "creates it"),
+    (["status", "--study", "3d"],
+     "no grid '3d' yet (runs/grid.db does not exist): python -m agents.grid run --study 3d"),
+    (["render"], "no grid 'planar' yet"),
     (["status", "--storage", "bogus://x"], "--storage bogus://x: cannot open it (NoSuchModuleError"),
     (["status", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),
     (["run", "--storage", "sqlite:///damaged.db"], "cannot open it (DatabaseError: file is not a database)"),

@@ -161,6 +161,16 @@ def test_bad_arguments_are_a_one_line_error(argv: list[str], message: str, capsy
     ("  n_timesteps: 100\n  frame_stack: 2.5\n", "frame_stack must be a whole number >= 1, got 2.5"),
     ("  n_timesteps: 100\n  frame_stack: true\n", "frame_stack must be a whole number >= 1, got True"),
     ("  n_timesteps: 100\n  frame_stack: four\n", "frame_stack must be a whole number >= 1, got 'four'"),
+    # Real numbers out of SB3's ranges trained on (gamma 1.5: overflow warnings, exit 0).
+    ("  n_timesteps: 100\n  gamma: 1.5\n", "gamma must be a number in [0, 1], got 1.5"),
+    ("  n_timesteps: 100\n  gae_lambda: -0.1\n", "gae_lambda must be a number in [0, 1], got -0.1"),
+    ("  n_timesteps: 100\n  learning_rate: 0.0\n", "learning_rate must be a number in (0, inf), got 0.0"),
+    ("  n_timesteps: 100\n  learning_rate: lin_-1.0e-3\n",
+     "learning_rate must be a number in (0, inf), got 'lin_-1.0e-3'"),
+    ("  n_timesteps: 100\n  ent_coef: -0.01\n", "ent_coef must be a number in [0, inf), got -0.01"),
+    ("  n_timesteps: 100\n  max_grad_norm: 0\n", "max_grad_norm must be a number in (0, inf), got 0"),
+    ("  n_timesteps: 100\n  gamma: .nan\n", "gamma must be a number in [0, 1], got nan"),
+    ("  n_timesteps: 100\n  vf_coef: .inf\n", "vf_coef must be a number in [0, inf), got inf"),
     # Passes the checks, refused by SB3's constructor: the model is built before any folder is made.
     ("  n_timesteps: 100\n  clip_range_vf: -1.0\n", "ppo does not accept these hyperparameters"),
 ])
@@ -290,7 +300,8 @@ def test_resume_falls_back_past_damaged_checkpoints_and_says_so(tmp_path: Path, 
     err = capsys.readouterr().err.strip()
     assert err.startswith("warning: resuming from rl_model_512_steps.zip: the newer checkpoints cannot be loaded")
     assert "\n" not in err and "rl_model_1024_steps.zip" in err and "rl_model_vecnormalize_768_steps.pkl" in err
-    assert train.read_run(out)["sessions"][-1]["start_timesteps"] == 512
+    # Written at the last step of the rollout 0-512, before its update: the run continues from 0.
+    assert train.read_run(out)["sessions"][-1]["start_timesteps"] == 0
 
 
 def test_help_shows_the_defaults(capsys: pytest.CaptureFixture) -> None:
@@ -329,7 +340,7 @@ def test_resume_skips_a_checkpoint_its_process_did_not_finish_writing(tmp_path: 
     assert train.latest_checkpoint(out, normalized=True).name == "rl_model_512_steps.zip"
     assert train.latest_checkpoint(out, normalized=False).name == "rl_model_1024_steps.zip"
     assert train.main(["--resume", str(out), "--timesteps", "1536", "--no-progress-bar"]) == 0
-    assert train.read_run(out)["sessions"][-1]["start_timesteps"] == 512
+    assert train.read_run(out)["sessions"][-1]["start_timesteps"] == 0  # 512: before the rollout's update
 
 
 def test_save_freq_zero_checkpoints_only_at_the_end(tmp_path: Path) -> None:
@@ -413,7 +424,7 @@ def test_the_selection_episodes_run_as_one_batch_each_from_its_own_seed(tmp_path
     import numpy as np
     from stable_baselines3.common.evaluation import evaluate_policy
 
-    config = train.run_config(train.parse_args(["--algo", "ppo", "--timesteps", "256", "--vec-env", "dummy", *FAST,
+    config, _ = train.run_config(train.parse_args(["--algo", "ppo", "--timesteps", "256", "--vec-env", "dummy", *FAST,
                                                 "--eval-episodes", "3", "--out", str(tmp_path / "run")]))
     setup = train.prepare(config)
     try:
@@ -449,3 +460,107 @@ def test_a_signal_during_the_last_step_leaves_the_run_finished(tmp_path: Path, m
     assert train.main(["--algo", "ppo", "--timesteps", "256", "--out", str(out), *FAST]) == 0
     assert json.loads((out / "run.json").read_text())["sessions"][0]["status"] == "finished"
     assert (out / "final_model.zip").is_file()
+
+
+def interrupt_at(steps: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The next run stops as on Ctrl-C at its first step at or past ``steps``."""
+    def signal_at(self) -> bool:
+        if self.num_timesteps >= steps:
+            train._stop["requested"] = "SIGINT"
+        return train._stop["requested"] is None
+
+    monkeypatch.setitem(train._stop, "requested", None)
+    monkeypatch.setattr(train.StopOnSignal, "_on_step", signal_at)
+
+
+def test_a_resumed_run_evaluates_where_an_uninterrupted_one_does_and_trains_its_budget(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture) -> None:
+    """Counted from the resume, the schedule missed the uninterrupted run's points (a run resumed at
+    1,000 of 2,048 steps with --eval-freq 2048 never evaluated), and PPO's rollouts from the resume
+    point overshot the budget announced (1,324 of 1,024 here)."""
+    argv = ["--algo", "ppo", "--timesteps", "1024", *FAST, "--save-freq", "0"]
+    assert train.main([*argv, "--out", str(tmp_path / "straight")]) == 0
+    out = tmp_path / "resumed"
+    interrupt_at(300, monkeypatch)
+    assert train.main([*argv, "--out", str(out)]) == 130
+    assert train.read_run(out)["sessions"][0]["timesteps"] == 300
+    monkeypatch.undo()
+    monkeypatch.setitem(train._stop, "requested", None)
+    capsys.readouterr()
+    assert train.main(["--resume", str(out), "--no-progress-bar"]) == 0
+    output = capsys.readouterr().out
+    # The rollout 0-512 was cut at 300, before PPO's update: the run continues from 0.
+    assert output.startswith("resuming rl_model_300_steps.zip at 0 steps, the end of the last rollout it learnt from")
+    assert "resuming ppo on LightSail-v0, seed 0, 1,024 steps" in output and "finished: 1,024 steps" in output
+    assert PPO.load(out / "final_model.zip").num_timesteps == 1024
+    for run in (tmp_path / "straight", out):
+        with np.load(run / "evaluations.npz") as log:
+            assert log["timesteps"].tolist() == [256, 512, 768, 1024], run
+
+
+@pytest.mark.parametrize("eval_freq", ["10000", "384"])
+def test_a_run_always_ends_with_a_best_model_when_it_evaluates(eval_freq: str, tmp_path: Path) -> None:
+    """A budget below --eval-freq (or not a multiple of it) ended without a final evaluation: no
+    best_model.zip, and the README's next command (evaluate.py --agent runs/latest/best_model.zip) failed."""
+    out = tmp_path / "run"
+    assert train.main(["--algo", "ppo", "--timesteps", "512", "--out", str(out), *FAST, "--eval-freq", eval_freq]) == 0
+    assert (out / "best_model.zip").is_file() and train.read_best(out)["timesteps"] == 512
+    with np.load(out / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == ([384, 512] if eval_freq == "384" else [512])
+
+
+def test_an_off_policy_run_resumed_inside_a_chunk_trains_its_budget(tmp_path: Path,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """SAC collects train_freq steps between updates and stopped only at a chunk's end: resumed at
+    101 with train_freq 8, a 256-step budget trained 261."""
+    (tmp_path / "sac.yml").write_text("LightSail-v0:\n  n_timesteps: 256\n  policy: MlpPolicy\n  normalize: false\n"
+                                      "  learning_starts: 50\n  train_freq: 8\n  gradient_steps: 1\n"
+                                      "  policy_kwargs: {net_arch: [8, 8]}\n")
+    out = tmp_path / "run"
+    interrupt_at(101, monkeypatch)
+    assert train.main(["--algo", "sac", "--config", str(tmp_path / "sac.yml"), "--out", str(out), *FAST,
+                       "--n-envs", "1", "--eval-freq", "0"]) == 130
+    monkeypatch.undo()
+    monkeypatch.setitem(train._stop, "requested", None)
+    assert train.main(["--resume", str(out), "--no-progress-bar"]) == 0
+    assert [s["timesteps"] for s in train.read_run(out)["sessions"]] == [101, 256]
+    assert train.ALGOS["sac"].load(out / "final_model.zip").num_timesteps == 256
+
+
+def test_resume_refuses_a_flag_that_contradicts_the_run_and_applies_the_others(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """--resume read only --timesteps: --algo sac resumed a PPO run as PPO, --eval-freq 0 still evaluated."""
+    out = tmp_path / "run"
+    assert train.main(["--algo", "ppo", "--timesteps", "256", "--out", str(out), *FAST]) == 0
+    before = sorted(str(p) for p in out.rglob("*"))
+    capsys.readouterr()
+    for flags, message in ((["--algo", "sac"], "--algo sac contradicts the run in"),
+                           (["--env", "LightSail3D-v0"], "--env LightSail3D-v0 contradicts"),
+                           (["--seed", "3"], "--seed 3 contradicts"), (["--n-envs", "4"], "--n-envs 4 contradicts"),
+                           (["--eval-episodes", "5"], "--eval-episodes 5 contradicts"),
+                           (["--config", "other.yml"], "--config other.yml contradicts"),
+                           (["--out", str(tmp_path / "elsewhere")], "--out")):
+        assert message in _refused(["--resume", str(out), "--timesteps", "1024", *flags], capsys)
+    assert sorted(str(p) for p in out.rglob("*")) == before
+    capsys.readouterr()
+    # The run's own values are no contradiction; --eval-freq and --save-freq apply, and it says so.
+    assert train.main(["--resume", str(out), "--timesteps", "1024", "--algo", "ppo", "--seed", "0", "--n-envs", "2",
+                       "--eval-freq", "0", "--save-freq", "0", "--no-progress-bar"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[:2] == ["resuming with --eval-freq 0 (the run had 256)",
+                         "resuming with --save-freq 0 (the run had 256)"]
+    with np.load(out / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [256, 512]  # none since the resume
+    assert train.read_run(out)["config"]["eval_freq"] == 0
+    assert sorted(p.name for p in (out / "checkpoints").glob("*.zip")) == ["rl_model_1024_steps.zip",
+                                                                          "rl_model_256_steps.zip",
+                                                                          "rl_model_512_steps.zip"]
+
+
+def test_a_yaml_that_cannot_be_parsed_names_the_line(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.yml").write_text("LightSail-v0:\n  n_timesteps: 100\n gamma: 0.9\n")
+    err = _refused(["--algo", "ppo", "--config", "bad.yml", "--no-progress-bar"], capsys)
+    assert "bad.yml: cannot read hyperparameters (ParserError: " in err and "at line 3, column 2)" in err
+    assert not (tmp_path / "runs").exists()

@@ -70,6 +70,23 @@ def test_an_enqueued_configuration_is_the_next_trial(tmp_path: Path, capsys: pyt
     assert trained["learning_rate"] == 3.77e-5 and trained["policy_kwargs"] == "dict(net_arch=[256, 256], activation_fn=nn.Tanh)"
 
 
+def test_an_enqueued_number_without_a_dot_is_a_number(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """YAML reads 3e-4 as text: the string '3e-4' was queued, and the trial failed when it trained."""
+    storage = f"sqlite:///{tmp_path}/grid.db"
+    items = [item for item in SAC_CONFIG if not item.startswith("learning_rate=")]
+    assert tuning.main(["--algo", "sac", "--storage", storage, "--study", "q", "--enqueue", *items,
+                        "learning_rate=3e-4"]) == 0
+    (waiting,) = optuna.load_study(study_name="q", storage=storage).get_trials()
+    queued = waiting.system_attrs["fixed_params"]["learning_rate"]
+    assert queued == 3e-4 and isinstance(queued, float)
+    capsys.readouterr()
+    assert tuning.main(["--algo", "sac", "--storage", f"sqlite:///{tmp_path}/other.db", "--enqueue", *items,
+                        "learning_rate=fast"]) == 2
+    errors = capsys.readouterr().err.splitlines()
+    assert errors == ["error: --enqueue learning_rate=fast: learning_rate must be a number"]
+    assert not (tmp_path / "other.db").exists()
+
+
 @pytest.mark.parametrize("change, message", [
     (["tau=0.02"], "; missing: tau"),  # left out
     (["batch_size=500"], "'500' not in (64, 128, 256, 512)"),
@@ -171,8 +188,35 @@ def test_a_stopped_trial_is_queued_again_and_resumes_its_checkpoint(tmp_path: Pa
     assert done.user_attrs["hyperparams"] == stopped.user_attrs["hyperparams"] and "new_knob" not in done.params
     sessions = training.read_run(run_dir)["sessions"]
     assert [s["status"] for s in sessions] == ["interrupted", "finished"]
-    assert sessions[1]["start_timesteps"] == sessions[0]["timesteps"] > 0
+    # Stopped inside PPO's first rollout, before its update: the retry continues from its start.
+    assert sessions[0]["timesteps"] > 0 and sessions[1]["start_timesteps"] == 0
     assert done.value == training.read_best(run_dir)["success_rate"]
+
+
+def test_a_trial_resumed_before_its_first_evaluation_is_scored(tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """Stopped at 100 of 256 steps with one evaluation at 256: the resumed session counted its schedule
+    from the resume, never evaluated, and the tuner failed on the missing best_model.json."""
+    storage = f"sqlite:///{tmp_path}/grid.db"
+    settings = {**SETTINGS, "eval_freq": 256}
+
+    def signal_at_100(self) -> bool:
+        if self.num_timesteps >= 100:
+            training._stop["requested"] = "SIGTERM"
+        return training._stop["requested"] is None
+
+    monkeypatch.setitem(training._stop, "requested", None)
+    with monkeypatch.context() as patch:
+        patch.setattr(training.StopOnSignal, "_on_step", signal_at_100)
+        with pytest.raises(KeyboardInterrupt):
+            tuning.tune("td3", "LightSail-v0", storage, "r", 1, settings, tmp_path / "runs")
+    monkeypatch.setitem(training._stop, "requested", None)
+    study = tuning.tune("td3", "LightSail-v0", storage, "r", 1, settings, tmp_path / "runs")
+    (done,) = study.get_trials(states=(TrialState.COMPLETE,))
+    run_dir = Path(done.user_attrs["run_dir"])
+    assert [(s["start_timesteps"], s["timesteps"]) for s in training.read_run(run_dir)["sessions"]] == [(0, 100),
+                                                                                                      (100, 256)]
+    assert done.intermediate_values.keys() == {256} and done.value == training.read_best(run_dir)["success_rate"]
 
 
 def finished_study(storage: str, name: str) -> optuna.Study:

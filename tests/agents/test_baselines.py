@@ -4,6 +4,7 @@ import pytest
 
 import sail_env  # noqa: F401
 from agents import LQGAgent, LQRAgent, PassiveAgent, lqr_gain
+from agents.adaptive import MultipleModelLQGAgent
 from sail_env.physics import DEEP_DISH, FLAT, SEED, PlanarModel
 
 
@@ -108,3 +109,22 @@ def test_agents_saturate_inside_the_action_space_far_off_the_beam(agent_cls):
     for action in actions:
         assert env.action_space.contains(action)
     assert np.min(actions) == -1.0 and np.max(actions) == 1.0
+
+
+@pytest.mark.parametrize("agent_cls, built_for, given", [
+    (PassiveAgent, "LightSail-v0", "LightSail3D-v0"), (LQRAgent, "LightSail-v0", "LightSail3D-v0"),
+    (LQGAgent, "LightSail-v0", "LightSail3D-v0"), (MultipleModelLQGAgent, "LightSail3DRealistic-v1", "LightSail3D-v0")])
+def test_an_agent_refuses_observations_of_another_task(agent_cls, built_for, given):
+    """Built for one task, given another's observations: the LQR and LQG read the first entries of a
+    longer one and acted silently (the passive sail too), a shorter one failed in NumPy's
+    broadcasting; one ValueError naming both sizes."""
+    spec = gym.make(built_for).unwrapped.episode_spec
+    agent = agent_cls(spec)
+    obs, _ = gym.make(given).reset(seed=0)
+    size = spec.observation_size
+    for wrong in (obs, np.stack([obs, obs]), np.zeros((2, 2, size), np.float32), np.float32(0.0)):
+        agent.reset()
+        with pytest.raises(ValueError, match=rf"observations have {size} entries .* got shape"):
+            agent.act(wrong)
+    agent.reset()
+    assert agent.act(np.zeros((2, size), np.float32)).shape == (2, len(spec.action_scale))

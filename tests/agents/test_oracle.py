@@ -115,6 +115,32 @@ def test_oracle_refuses_to_act_without_the_env():
         agent.attach(gym.make("LightSail3D-v0"))
 
 
+def test_an_oracle_refuses_to_act_unless_attached_and_reset():
+    """Unattached, lqg-oracle played the nominal LQG under the oracle's name (lqr-oracle refused)."""
+    env = gym.make("LightSail-v0")
+    obs, _ = env.reset(seed=0)
+    for oracle in (OracleLQGAgent(env.unwrapped.episode_spec), OracleLQRAgent(env.unwrapped.episode_spec)):
+        with pytest.raises(RuntimeError, match="attach"):
+            oracle.act(obs)
+        attach(oracle, env)
+        with pytest.raises(RuntimeError, match=r"reset\(\) after attach"):  # still the nominal design
+            oracle.act(obs)
+        oracle.reset()
+        assert oracle.act(obs).shape == (2,)
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_an_oracle_refuses_a_vector_env_that_hides_its_episode_state(mode):
+    """Gymnasium's one-env-at-a-time vector envs: an AttributeError from deep inside, now one ValueError."""
+    envs = gym.make_vec("LightSail-v0", num_envs=2, vectorization_mode=mode)
+    try:
+        for oracle in (OracleLQGAgent, OracleLQRAgent):
+            with pytest.raises(ValueError, match="vector_entry_point"):
+                attach(oracle(gym.make("LightSail-v0").unwrapped.episode_spec), envs)
+    finally:
+        envs.close()
+
+
 def test_paired_difference_counts_and_interval():
     """12 episodes: A wins 4 where the reference loses, loses 1: +25 points, McNemar p = 0.375 (2 × 5/32)."""
     a = np.array([1, 1, 1, 1, 0, 1, 1, 0, 0, 1, 1, 1], bool)
