@@ -16,7 +16,7 @@ Tolerance: a sail exactly on the beam at ``start_s`` and left to the jitter unti
 ends with ``V⊥ = (vx, vy)`` Gaussian, isotropic (the sail is axisymmetric and the jitter
 isotropic), so ``|V⊥|`` is Rayleigh: the PSD is tolerable when ``|V⊥|/Vz ≤ 10 nrad`` with
 the given probability (95 % by default, over both axes). The planar convention of
-:func:`sail_env.physics.noise.tolerable_jitter_psd` (one axis, two-sided) is ``axes=1``.
+:func:`sail_env.analysis.planar.tolerable_jitter_psd` (one axis, two-sided) is ``axes=1``.
 The per-step standard deviation of a jitter drawn afresh every control step ``dt`` and
 held is ``√(S_δ/dt)``.
 """

@@ -24,8 +24,9 @@ import scipy.optimize
 from matplotlib.figure import Figure
 
 from sail_env.physics import (
-    DEEP_DISH, FLAT, SEED, EnvelopeEstimator, PlanarModel, SailConfig, push_force_from_laser,
+    DEEP_DISH, FLAT, SEED, PlanarModel, SailConfig, push_force_from_laser,
 )
+from sail_env.analysis.planar import EnvelopeEstimator
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.mission import (
     distance_flown_m,

@@ -36,7 +36,6 @@ import functools
 
 import numpy as np
 import scipy.linalg
-import scipy.special
 
 from sail_env.physics.planar import PlanarModel, push_sensitivity
 
@@ -221,20 +220,3 @@ def propagate_moments(model: PlanarModel, mean: np.ndarray, cov: np.ndarray,
         return phi @ mean + gamma @ action, phi @ cov @ phi.T
     gen = moment_generator(model.A, model.B, action, noise)
     return mean_and_covariance(scipy.linalg.expm(gen * duration) @ second_moment(mean, cov))
-
-
-def tolerable_jitter_psd(model: PlanarModel, duration: float, tolerance_rad: float,
-                         cutoff_s: float, probability: float = 0.95) -> float:
-    """Largest beam-jitter PSD [m² s] that keeps ``|V⊥|/Vz ≤ tolerance_rad`` at cut-off
-    with the given probability, for a sail that is perfectly on the beam ``duration``
-    seconds before cut-off and then left to the jitter (docs/physics.md §3).
-
-    The velocity variance is linear in the PSD, so one unit-PSD propagation suffices.
-    """
-    if not 0 < probability < 1:
-        raise ValueError(f"probability must be in (0, 1), got {probability}")
-    _, unit_cov = propagate_moments(model, np.zeros(4), np.zeros((4, 4)), np.zeros(2), duration,
-                                    WhiteNoise(beam_jitter_psd_m2s=1.0))
-    quantile = float(scipy.special.ndtri(0.5 + probability / 2))
-    allowed_speed = tolerance_rad * model.equilibrium_speed(cutoff_s) / quantile
-    return allowed_speed**2 / unit_cov[1, 1]

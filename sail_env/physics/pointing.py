@@ -130,15 +130,3 @@ def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray, rows: i
     if table.ndim == 2:
         return np.abs(z @ table.T).max(axis=-1)
     return np.abs(np.matmul(table, z[..., None])).max(axis=(-2, -1))
-
-
-class EnvelopeEstimator:
-    """The envelope of one model: :func:`envelope_table` kept for repeated queries."""
-
-    def __init__(self, model: PlanarModel, periods: float = 1.0,
-                 samples_per_fast_period: int = 32, max_samples: int = 2048) -> None:
-        self.table = envelope_table(model.A, model.B, periods, samples_per_fast_period, max_samples)
-
-    def peak_speed(self, state: np.ndarray, action: np.ndarray) -> float:
-        """max over the look-ahead of ``|Vx|`` [m/s], input ``action`` held."""
-        return float(peak_speed(self.table, state, action))

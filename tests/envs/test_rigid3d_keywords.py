@@ -16,7 +16,7 @@ import pytest
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.core.spec import Disturbances, task_spec
 from sail_env.envs.rigid3d import LightSail3DEnv, rigid3d_spec
-from sail_env.physics import disturbance
+from sail_env.physics import disturbances
 
 
 def _refused(kwargs: dict, field: str) -> str:
@@ -82,7 +82,7 @@ def env_keywords() -> list[str]:
     shared = [name for name in inspect.signature(task_spec).parameters
               if name not in ("make_plant", "default_start_half_widths", "disturbances")]
     episode = [field.name for field in dataclasses.fields(Disturbances) if field.name != "sources"]
-    return own + shared + episode + list(disturbance.keywords())
+    return own + shared + episode + list(disturbances.keywords())
 
 
 def test_every_keyword_is_in_the_docstrings_table_with_its_range():

@@ -122,7 +122,7 @@ def test_noise_validation():
         WhiteNoise(push_psd_s=-1.0)
     with pytest.raises(ValueError, match="duration"):
         propagate_moments(PlanarModel(SEED), np.zeros(4), np.zeros((4, 4)), np.zeros(2), -1.0, WhiteNoise())
-    from sail_env.physics.noise import tolerable_jitter_psd
+    from sail_env.analysis.planar import tolerable_jitter_psd
 
     for probability in (0.0, 1.0, 1.5):
         with pytest.raises(ValueError, match=rf"probability must be in \(0, 1\), got {probability}"):
@@ -131,7 +131,7 @@ def test_noise_validation():
 
 def test_tolerable_jitter_matches_the_driven_oscillator():
     """At the seed point only the X oscillator feels the jitter: E[Vx²] = b² S (t/2 + sin 2ωt / 4ω)."""
-    from sail_env.physics.noise import tolerable_jitter_psd
+    from sail_env.analysis.planar import tolerable_jitter_psd
 
     model = PlanarModel(SEED)
     b = model.B[1, 0]

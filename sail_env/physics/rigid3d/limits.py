@@ -11,20 +11,12 @@ from __future__ import annotations
 
 import math
 
-from sail_env.physics.constants import HYDROGEN_MASS_KG
-from sail_env.physics.linear_plant import MAX_TILT_RAD
 from sail_env.physics.rigid3d.config import MIN_CAUGHT_FRACTION
 
 #: Largest relative power command ``u₅``. At −50 % the push is still half the nominal, so the push
 #: noise on top (at most 25 %, whose 4σ step is a full push) never reverses it; and the step's push
 #: expansion, exact to ``O(u₅⁵)``, is then within ~3e-10 of the step (1e-13 at ±10 %).
 MAX_POWER_CONTROL = 0.5
-#: Largest axial drag of the swept-up dust (``n m_g π a² v²``, which the model leaves out) as a
-#: fraction of the push: the impacts must stay a perturbation of a beam-riding sail.
-MAX_DUST_DRAG_FRACTION = 0.01
-#: Mean speed [m/s] of interplanetary grains at 1 AU (Grün et al. 1985): with the sail's axial
-#: speed it sets the impact speed; its per-axis share ``/√3`` sets the lateral momentum of a grain.
-DUST_SPEED_M_S = 2.0e4
 
 
 def check_spin(spin_rad_s: float, control_step_s: float) -> None:
@@ -36,13 +28,6 @@ def check_spin(spin_rad_s: float, control_step_s: float) -> None:
     if not abs(spin_rad_s) <= limit:
         raise ValueError(f"spin_rad_s must be in [-{limit:.4g}, {limit:.4g}] rad/s (at most half a turn per "
                          f"{control_step_s:g} s control step), got {spin_rad_s}")
-
-
-def check_grain_mass(grain_mass_kg: float) -> None:
-    """A grain is 0 (no dust) or at least a hydrogen atom: nothing lighter can be swept up."""
-    if 0 < grain_mass_kg < HYDROGEN_MASS_KG:
-        raise ValueError(f"dust_grain_mass_kg must be 0 (no dust) or >= {HYDROGEN_MASS_KG:.4g} kg (a hydrogen atom), "
-                         f"got {grain_mass_kg}")
 
 
 def _bisect(inside, low: float, high: float) -> float:
@@ -82,24 +67,3 @@ def check_flight(flight, lin, parameter_spread: float) -> None:
         raise ValueError(f"diffraction_length_m must be >= {shortest:.4g} m (inf: no diffraction): the spot, widened "
                          f"by D/L0 up to the control window's end (D <= {window_distance:.4g} m), must still put >= "
                          f"{MIN_CAUGHT_FRACTION:.0%} of the beam on the sail, got {flight.diffraction_length_m}")
-
-
-def check_dust(flight, lin, parameter_spread: float, density_m3: float, grain_mass_kg: float) -> None:
-    """The impacts must stay a perturbation: their drag ``n m_g π a² v²`` under
-    :data:`MAX_DUST_DRAG_FRACTION` of the push, and no single grain (hitting the rim at the fastest
-    speed) kicking the sail out of the small-angle regime or the beam within a control step (the
-    start limits' rule)."""
-    sail, dt = flight.sail, flight.control_step_s
-    a, tilt = sail.aperture_radius_m, min(sail.aperture_radius_m / sail.com_distance_m, MAX_TILT_RAD)
-    accel, horizon = fastest_flight(flight, lin, parameter_spread)
-    speed = math.hypot(accel * horizon, DUST_SPEED_M_S)
-    densest = MAX_DUST_DRAG_FRACTION * lin.push_n / (grain_mass_kg * math.pi * a**2 * speed**2)
-    if density_m3 > densest:
-        raise ValueError(f"dust_density_m3 must be <= {densest:.4g} per m³ for grains of {grain_mass_kg:g} kg (the "
-                         f"swept dust's drag at {speed:.4g} m/s under {MAX_DUST_DRAG_FRACTION:.0%} of the push), "
-                         f"got {density_m3}")
-    heaviest = min(tilt / dt * lin.inertia[0, 0] / (speed * a), a / dt * lin.mass_kg * math.sqrt(3) / DUST_SPEED_M_S)
-    if grain_mass_kg > heaviest:
-        raise ValueError(f"dust_grain_mass_kg must be <= {heaviest:.4g} kg (one grain hitting the rim at {speed:.4g} "
-                         f"m/s must not throw the sail out of the beam or the small-angle regime within a control "
-                         f"step), got {grain_mass_kg}")

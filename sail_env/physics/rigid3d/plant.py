@@ -42,7 +42,8 @@ from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights, draw_flights
-from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL, check_flight, check_spin, farthest_distance_m
+from sail_env.physics.rigid3d.limits import (MAX_POWER_CONTROL, check_flight, check_spin, farthest_distance_m,
+                                             fastest_flight)
 from sail_env.physics.rigid3d.damping import damped_linearisation
 from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation
 from sail_env.physics.rigid3d.scales import ScaleTable, scale_table
@@ -181,6 +182,8 @@ class RigidPlant(LinearPlant):
     #: A constant-term column even without a payload offset (a subclass's drawn constant drive).
     always_biased = False
     velocity_rows = (VX, VY)
+    #: The tilt rates (with the lateral speeds, the rows a dust grain kicks).
+    tilt_rate_rows = (OMEGA_X, OMEGA_Y)
     #: Components limited together at the start, as divergence limits them: ``√(x² + y²)`` and so on.
     radial_pairs = ((X, Y), (VX, VY), (THETA_X, THETA_Y), (OMEGA_X, OMEGA_Y))
     #: The CoM has left the aperture (``√(x² + y²) > a``) or the tilt the small-angle regime or the
@@ -322,9 +325,7 @@ class RigidPlant(LinearPlant):
             # (1 + power_control) / (power factor), far inside the margin between a piece's e^20
             # and overflow.
             growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise, (a - self.kinematics, b)))
-        c = self.config.sail
-        limits = np.tile([c.aperture_radius_m, min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)],
-                         (len(a), 1))
+        limits = np.tile([self.aperture_radius_m, self.tilt_limit_rad], (len(a), 1))
         acceleration = self.nominal_acceleration * self.draw_rows(factors)[1]
         return RigidParams(a, b, step, table, acceleration, limits, growth, shared, rows, factors)
 
@@ -344,9 +345,15 @@ class RigidPlant(LinearPlant):
         return self.nominal_b[:, -1] if self.biased else np.zeros(self.n_states)
 
     def start_limits(self) -> np.ndarray:
+        a, tilt = self.aperture_radius_m, self.tilt_limit_rad
+        return np.repeat([a, a / self.dt, tilt, tilt / self.dt], 2)
+
+    @property
+    def tilt_limit_rad(self) -> float:
+        """Largest tilt [rad] on the beam: the aperture seen from the CoM, at most the small-angle
+        regime's :data:`~sail_env.physics.linear_plant.MAX_TILT_RAD`."""
         c = self.config.sail
-        tilt = min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)
-        return np.repeat([c.aperture_radius_m, c.aperture_radius_m / self.dt, tilt, tilt / self.dt], 2)
+        return min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)
 
     def power_factor(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The Doppler power factor at flight time ``t`` of sails with ``ratio`` times the nominal
@@ -372,6 +379,12 @@ class RigidPlant(LinearPlant):
     def farthest_distance_m(self) -> float:
         """The farthest any draw can be from the array at a cut-off (a Newtonian bound)."""
         return farthest_distance_m(self.config, self.linearisation, self.parameter_spread)
+
+    @property
+    def fastest_speed_m_s(self) -> float:
+        """The fastest any draw can fly at a cut-off (the same Newtonian bound)."""
+        acceleration, horizon = fastest_flight(self.config, self.linearisation, self.parameter_spread)
+        return acceleration * horizon
 
     @property
     def aperture_radius_m(self) -> float:
