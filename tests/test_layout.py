@@ -23,7 +23,7 @@ def test_the_core_knows_no_concrete_sail_model() -> None:
     import ast
     from pathlib import Path
 
-    concrete = ("sail_env.physics.planar_plant", "sail_env.physics.rigid3d", "PlanarPlant", "RigidPlant", "UncertainPlant")
+    concrete = ("sail_env.physics.planar", "sail_env.physics.rigid3d", "PlanarPlant", "RigidPlant", "UncertainPlant")
     for path in sorted(Path("sail_env/core").glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom):
@@ -147,3 +147,24 @@ def test_the_graph_scan_sees_a_lazy_circular_import(tmp_path) -> None:
     assert cycles(graph) == [["sail_env.core.spec", "sail_env.physics.lower"],
                              ["sail_env.physics.base", "sail_env.physics.plugin"]]
     assert floor("sail_env.physics.lower") < floor("sail_env.core.spec")
+
+
+#: The sail models' packages in ``sail_env.physics``: siblings, as brax's pipelines are.
+MODELS = ("sail_env.physics.planar", "sail_env.physics.rigid3d")
+
+
+def test_the_sail_models_are_siblings_on_generic_physics() -> None:
+    """No sail model imports another, and the generic physics (the linear machinery, the validators,
+    the disturbances, the seed's design point) imports none: each model supplies what the generic
+    code needs (its push terms, velocity rows, mode rates), so a new model is one package beside
+    them. ``sail_env.physics`` itself re-exports the planar names for short imports."""
+    from pathlib import Path
+
+    graph = import_graph(Path(__file__).parents[1], ("sail_env",))
+
+    def model_of(module: str) -> str | None:
+        return next((model for model in MODELS if module == model or module.startswith(model + ".")), None)
+
+    crossing = sorted((module, other) for module, imported in graph.items() for other in imported
+                      if module.startswith("sail_env.physics.") and model_of(other) not in (None, model_of(module)))
+    assert crossing == []

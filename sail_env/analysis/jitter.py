@@ -34,9 +34,9 @@ import scipy.optimize
 import scipy.special
 from threadpoolctl import threadpool_limits
 
-from sail_env.physics.config import DEEP_DISH, SEED, SailConfig
+from sail_env.physics.planar.config import DEEP_DISH, SEED, SailConfig
 from sail_env.physics.mission import ARRAY_DIAMETER_M, LASER_WAVELENGTH_M, diffraction_length_m
-from sail_env.physics.planar import PlanarModel
+from sail_env.physics.planar.model import PlanarModel
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, RigidSailConfig

@@ -35,7 +35,7 @@ from sail_env.physics.mission import (
     required_figure_of_merit,
     thermal_acceleration_limit,
 )
-from sail_env.physics.planar import THETA, VX, X
+from sail_env.physics.planar.model import THETA, VX, X
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.relativity import LAWS, beta_history, time_to_beta
 from sail_env.provenance import package_versions

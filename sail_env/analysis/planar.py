@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.special
 
-from sail_env.physics.noise import WhiteNoise, propagate_moments
-from sail_env.physics.planar import PlanarModel
+from sail_env.physics.noise import WhiteNoise
+from sail_env.physics.planar.model import VX, PlanarModel, propagate_moments, rates
 from sail_env.physics.pointing import envelope_table, peak_speed
 
 
@@ -34,7 +34,8 @@ class EnvelopeEstimator:
 
     def __init__(self, model: PlanarModel, periods: float = 1.0,
                  samples_per_fast_period: int = 32, max_samples: int = 2048) -> None:
-        self.table = envelope_table(model.A, model.B, periods, samples_per_fast_period, max_samples)
+        self.table = envelope_table(model.A, model.B, rows=(VX,), mode_rates=rates(model.A), periods=periods,
+                                    samples_per_fast_period=samples_per_fast_period, max_samples=max_samples)
 
     def peak_speed(self, state: np.ndarray, action: np.ndarray) -> float:
         """max over the look-ahead of ``|Vx|`` [m/s], input ``action`` held."""

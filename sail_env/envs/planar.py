@@ -15,8 +15,8 @@ from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.core.state import EpisodeState
 from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.envs.rendering import SailRenderer
-from sail_env.physics.config import PRESETS, SailConfig
-from sail_env.physics.planar_plant import PlanarPlant
+from sail_env.physics.planar.config import PRESETS, SailConfig
+from sail_env.physics.planar.plant import PlanarPlant
 
 _ONE = np.zeros(1, dtype=np.int64)
 #: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
@@ -43,7 +43,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     must leave the beam flying within 10 nrad of its target line, or it misses Proxima b
     by more than the Earth-Moon distance. The sail is the seed paper's spherical dish
     with a payload on struts (Team 258, MCM Problem A, eqs 16-19, corrected as in
-    ``sail_env.physics.planar``); in the plane it has four states, and a curved dish
+    ``sail_env.physics.planar.model``); in the plane it has four states, and a curved dish
     makes a restoring force but never damps: the passive sail never forgets a
     perturbation. The agent steers the beam during the early flight (the *control
     window*), the rest of the beam time to cut-off is propagated exactly with the last
@@ -65,7 +65,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     Actions outside [-1, 1] are clipped; a NaN or infinite action raises ``ValueError``.
     In this planar model both act through the beam's landing point on the sail,
-    ``d + Lc ψ`` (see ``sail_env.physics.planar``); the 3D model separates them.
+    ``d + Lc ψ`` (see ``sail_env.physics.planar.model``); the 3D model separates them.
 
     ## Observation Space
 

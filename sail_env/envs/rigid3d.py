@@ -11,7 +11,8 @@ import numpy as np
 from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
-from sail_env.physics.config import SEED, real_number
+from sail_env.physics.checks import real_number
+from sail_env.physics.planar.config import SEED
 from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, SHAPES, RigidSailConfig
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL

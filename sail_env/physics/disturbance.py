@@ -31,7 +31,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from sail_env.physics.config import real_number
+from sail_env.physics.checks import real_number
 
 #: Every registered disturbance class by each keyword it takes, in registration order.
 REGISTRY: dict[str, type[Disturbance]] = {}

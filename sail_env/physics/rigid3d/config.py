@@ -1,9 +1,9 @@
 """Configuration of the rigid 3D sail: shape, materials, masses, beam and quadrature (SI units).
 
-The geometry extends :class:`sail_env.physics.config.SailConfig` (the seed's planar model):
+The geometry extends the seed's planar model's (:class:`sail_env.physics.planar.config.SailConfig`):
 the sail axis points away from the laser, the centre of mass (CoM) lies ``Lc`` behind the
 sail's vertex (towards the laser), the payload ``L`` behind it. The defaults are the seed's
-design point (a = 2 m, R = Lc = 10 m, L = 20 m, 0.5 g + 0.5 g) in a flat-top beam of the
+design point (:mod:`sail_env.physics.seed`: a = 2 m, R = Lc = 10 m, L = 20 m, 0.5 g + 0.5 g) in a flat-top beam of the
 aperture's size whose power gives the seed's push ``2P/c = 100 N`` on a flat mirror.
 """
 
@@ -15,7 +15,8 @@ import numbers
 
 import scipy.special
 
-from sail_env.physics.config import SEED, real_number
+from sail_env.physics import seed
+from sail_env.physics.checks import real_number
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.mission import LASER_WAVELENGTH_M
 
@@ -23,7 +24,7 @@ SHAPES = ("dish", "balloon", "flat", "cone")
 BEAM_PROFILES = ("flat-top", "gaussian", "multi-gaussian", "annulus")
 
 #: Beam power whose push on a perfect flat mirror catching all of it is the seed's 100 N.
-SEED_BEAM_POWER_W = SEED.push_force_n * SPEED_OF_LIGHT / 2.0
+SEED_BEAM_POWER_W = seed.PUSH_FORCE_N * SPEED_OF_LIGHT / 2.0
 #: Largest ``R / a`` of a curved sail. The curvature's terms go as ``a/R``: at ``R = 1e4 a`` (a sag of
 #: ``a/2e4``, 0.1 mm on the seed's 2 m sail) they are 1e-4 of the flat sail's, the surface quadrature's
 #: own accuracy (:data:`WAIST_NODE_SPACINGS`), so a flatter sail is ``shape="flat"`` within the model's
@@ -47,7 +48,7 @@ BEAM_RADIUS_LIMITS = {"flat-top": "no beam focuses below its wavelength",
 
 
 @dataclasses.dataclass(frozen=True)
-class RigidSailConfig:
+class RigidSailConfig(seed.SailBody):
     """Rigid 3D light sail in a laser beam (docs/physics.md §6).
 
     Attributes:
@@ -77,12 +78,6 @@ class RigidSailConfig:
     """
 
     shape: str = "dish"
-    aperture_radius_m: float = SEED.aperture_radius_m
-    curvature_radius_m: float = SEED.curvature_radius_m
-    com_distance_m: float = SEED.com_distance_m
-    strut_length_m: float = SEED.strut_length_m
-    sail_mass_kg: float = SEED.sail_mass_kg
-    craft_mass_kg: float = SEED.craft_mass_kg
     strut_mass_kg: float = 0.0
     reflectivity: float = 1.0
     absorptivity: float = 0.0

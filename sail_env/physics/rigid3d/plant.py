@@ -33,7 +33,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sail_env.physics.config import SEED, boolean, check_timing, real_number
+from sail_env.physics import seed
+from sail_env.physics.checks import boolean, check_timing, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
 from sail_env.physics.noise import moment_growth_rate
@@ -62,7 +63,7 @@ X, Y, VX, VY, THETA_X, THETA_Y, OMEGA_X, OMEGA_Y = range(8)
 
 
 @dataclasses.dataclass(frozen=True)
-class RigidTaskConfig:
+class RigidTaskConfig(seed.Timing):
     """The 3D task's physics: the sail and beam, its spin, the power command and the timing.
 
     Attributes:
@@ -83,7 +84,7 @@ class RigidTaskConfig:
             :mod:`~sail_env.physics.rigid3d.damping`; docs/physics.md §13): the only passive
             damping a mirror has, of order 1e-3 e-folds over a flight.
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
-            :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
+            the planar sail's (the seed's design point, :mod:`~sail_env.physics.seed`).
     """
 
     sail: RigidSailConfig = RigidSailConfig()
@@ -93,18 +94,14 @@ class RigidTaskConfig:
     diffraction_length_m: float = math.inf
     payload_offset_m: float = 0.0
     velocity_terms: bool = False
-    beam_cutoff_s: float = SEED.beam_cutoff_s
-    control_step_s: float = SEED.control_step_s
-    control_window_s: float = SEED.control_window_s
-    control_start_s: float = SEED.control_start_s
 
     def __post_init__(self) -> None:
         if not isinstance(self.sail, RigidSailConfig):
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
         for name in ("relativistic", "velocity_terms"):
             object.__setattr__(self, name, boolean(getattr(self, name), name))
-        for field in dataclasses.fields(RigidTaskConfig)[1:]:  # a subclass checks its own fields
-            if field.name in ("relativistic", "velocity_terms"):
+        for field in dataclasses.fields(RigidTaskConfig):  # a subclass checks its own fields
+            if field.name in ("sail", "relativistic", "velocity_terms"):
                 continue
             value = real_number(getattr(self, field.name), field.name)
             if math.isnan(value) or (math.isinf(value) and field.name != "diffraction_length_m"):
@@ -129,10 +126,6 @@ class RigidTaskConfig:
         """Flight time of the control window's middle: where the window's model is taken."""
         return self.control_start_s + 0.5 * self.control_window_s
 
-    @property
-    def control_steps(self) -> int:
-        """Number of control steps in the window (rounded to whole steps)."""
-        return max(1, round(self.control_window_s / self.control_step_s))
 
 
 @dataclasses.dataclass
