@@ -91,8 +91,8 @@ class RigidSailConfig(seed.SailBody):
     angular_nodes: int = 128
 
     def __post_init__(self) -> None:
-        _check_choice("shape", self.shape, SHAPES)
-        _check_choice("beam_profile", self.beam_profile, BEAM_PROFILES)
+        check_choice("shape", self.shape, SHAPES)
+        check_choice("beam_profile", self.beam_profile, BEAM_PROFILES)
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
             if field.type in ("str",) or value is None:
@@ -208,6 +208,6 @@ class RigidSailConfig(seed.SailBody):
         return dataclasses.replace(self, **changes)
 
 
-def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
+def check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
     if not (isinstance(value, str) and value in choices):
         raise ValueError(f"{name} must be one of {choices}, got {value!r}")
