@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -25,7 +24,6 @@ from sail_env.physics.planar.plant import PlanarPlant
 from sail_env.physics.rigid3d.config import SHAPES, RigidSailConfig, check_choice
 from sail_env.physics.rigid3d.plant import RigidPlant, RigidTaskConfig
 from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainPlant, UncertainTaskConfig
-from sail_env.physics.seed import SailBody, Timing
 
 #: Relative beam power at action ±1 of the power input with ``power_control=True``.
 DEFAULT_POWER_CONTROL = 0.1
@@ -77,19 +75,20 @@ class Rigid3DParams:
     :class:`~sail_env.physics.rigid3d.uncertainty.UncertainTaskConfig` with a model uncertainty).
     """
 
-    sail_shape: str = "dish"
-    beam_profile: str = "flat-top"
-    curvature_radius_m: float = SailBody.curvature_radius_m
-    com_distance_m: float = SailBody.com_distance_m
-    absorptivity: float = 0.0
-    beam_radius_m: float | None = None
-    spin_rad_s: float = 0.0
-    relativistic: bool = False
-    diffraction_length_m: float = math.inf
-    payload_offset_m: float = 0.0
-    velocity_terms: bool = False
+    # The defaults are the physics configurations' (the seed's dish in its flat-top beam).
+    sail_shape: str = RigidSailConfig.shape
+    beam_profile: str = RigidSailConfig.beam_profile
+    curvature_radius_m: float = RigidSailConfig.curvature_radius_m
+    com_distance_m: float = RigidSailConfig.com_distance_m
+    absorptivity: float = RigidSailConfig.absorptivity
+    beam_radius_m: float | None = RigidSailConfig.beam_radius_m
+    spin_rad_s: float = RigidTaskConfig.spin_rad_s
+    relativistic: bool = RigidTaskConfig.relativistic
+    diffraction_length_m: float = RigidTaskConfig.diffraction_length_m
+    payload_offset_m: float = RigidTaskConfig.payload_offset_m
+    velocity_terms: bool = RigidTaskConfig.velocity_terms
     power_control: bool | float = False
-    control_start_s: float = Timing.control_start_s
+    control_start_s: float = RigidTaskConfig.control_start_s
     model_uncertainty: ModelUncertainty | dict[str, float] | None = None
     task: RigidTaskConfig = dataclasses.field(init=False, repr=False, compare=False)
 

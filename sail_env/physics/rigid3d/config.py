@@ -13,15 +13,13 @@ import dataclasses
 import math
 import numbers
 
-import scipy.special
-
 from sail_env.physics import seed
 from sail_env.physics.checks import real_number
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.mission import LASER_WAVELENGTH_M
+from sail_env.physics.rigid3d.beams import BEAM_PROFILES, BeamProfile
 
 SHAPES = ("dish", "balloon", "flat", "cone")
-BEAM_PROFILES = ("flat-top", "gaussian", "multi-gaussian", "annulus")
 
 #: Beam power whose push on a perfect flat mirror catching all of it is the seed's 100 N.
 SEED_BEAM_POWER_W = seed.PUSH_FORCE_N * SPEED_OF_LIGHT / 2.0
@@ -140,7 +138,7 @@ class RigidSailConfig(seed.SailBody):
 
     def _check_spot(self) -> None:
         """The beam's radius within :meth:`beam_radius_range` (and a multi-Gaussian's lobes resolved)."""
-        if self.beam_profile == "multi-gaussian" and not self.lobe_waist_m >= self.min_waist_m:
+        if self.beam().ring and not self.lobe_waist_m >= self.min_waist_m:
             raise ValueError(f"beam_lobe_waist_m must be >= {self.min_waist_m:.4g} m (a Gaussian waist spans "
                              f"{WAIST_NODE_SPACINGS:g} radial node spacings of the surface quadrature), "
                              f"got {self.lobe_waist_m}")
@@ -155,9 +153,7 @@ class RigidSailConfig(seed.SailBody):
         """``beam_radius_m``'s valid range: from the smallest spot the quadrature resolves (a Gaussian's
         waist) or a beam can focus to (its wavelength) to the widest whose power the sail still catches
         :data:`MIN_CAUGHT_FRACTION` of (bisected: the caught fraction falls as the radius grows)."""
-        low = {"gaussian": self.min_waist_m, "multi-gaussian": 0.0}.get(self.beam_profile, LASER_WAVELENGTH_M)
-        if self.beam_profile == "annulus" and self.beam_inner_radius_m is None:
-            low *= 2.0  # the inner edge, half the outer radius, is the smaller spot
+        low = self.beam().smallest_radius_m(self.min_waist_m, LASER_WAVELENGTH_M, self.beam_inner_radius_m is not None)
         below, above = self.aperture_radius_m * 1e-3, self.aperture_radius_m / math.sqrt(MIN_CAUGHT_FRACTION) * 1e3
         for _ in range(60):
             middle = math.sqrt(below * above)
@@ -172,28 +168,19 @@ class RigidSailConfig(seed.SailBody):
     def caught_fraction(self, scale: float = 1.0, outer_m: float | None = None) -> float:
         """Fraction of the beam's power crossing the sail's disc of radius ``a`` (centred, the spot
         widened by ``scale``; with the outer radius ``outer_m`` instead of the configured one)."""
-        a = self.aperture_radius_m / scale
+        return self.beam(outer_m).caught_fraction(self.aperture_radius_m / scale)
+
+    def beam(self, outer_m: float | None = None) -> BeamProfile:
+        """The beam's profile (with the outer radius ``outer_m`` instead of the configured one; a
+        default inner radius follows it)."""
         outer = self.outer_beam_radius_m if outer_m is None else outer_m
-        if self.beam_profile in ("flat-top", "annulus"):
-            inner = 0.5 * outer if self.beam_inner_radius_m is None else self.beam_inner_radius_m
-            inner = inner if self.beam_profile == "annulus" else 0.0
-            # Ratios to the outer radius: no square overflows for any finite radius.
-            caught = min(a / outer, 1.0) ** 2 - min(a / outer, inner / outer) ** 2
-            return max(caught, 0.0) / (1.0 - (inner / outer) ** 2)
-        multi = self.beam_profile == "multi-gaussian"
-        sigma = 0.5 * (self.lobe_waist_m if multi else outer)
-        centre = outer if multi else 0.0
-        # A Gaussian of standard deviation σ per axis centred at r: |p|²/σ² is non-central χ² with 2 degrees.
-        return float(scipy.special.chndtr((a / sigma) ** 2, 2, (centre / sigma) ** 2))  # ncx2.cdf without importing scipy.stats (0.35 s)
+        inner = 0.5 * outer if self.beam_inner_radius_m is None else self.beam_inner_radius_m
+        return BeamProfile(self.beam_profile, outer, inner, self.lobe_waist_m, self.beam_lobes)
 
     @property
     def outer_beam_radius_m(self) -> float:
         """Flat-top or annulus outer radius, Gaussian waist or ring radius (default: ``a``)."""
         return self.aperture_radius_m if self.beam_radius_m is None else self.beam_radius_m
-
-    @property
-    def inner_beam_radius_m(self) -> float:
-        return 0.5 * self.outer_beam_radius_m if self.beam_inner_radius_m is None else self.beam_inner_radius_m
 
     @property
     def lobe_waist_m(self) -> float:
