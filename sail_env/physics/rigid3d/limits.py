@@ -39,31 +39,32 @@ def _bisect(inside, low: float, high: float) -> float:
     return low
 
 
-def fastest_flight(flight, lin, parameter_spread: float) -> tuple[float, float]:
+def fastest_flight(task, lin, parameter_spread: float) -> tuple[float, float]:
     """The Newtonian bound's acceleration [m/s²] (the fastest draw at the largest power command) and
     horizon [s] (twice the cut-off) of a sail ``lin`` (a
-    :class:`~sail_env.physics.rigid3d.linearise.Linearisation`) on ``flight`` (a
+    :class:`~sail_env.physics.rigid3d.linearise.Linearisation`) in ``task`` (a
     :class:`~sail_env.physics.rigid3d.plant.RigidTaskConfig`)."""
-    fastest = (1 + parameter_spread) / (1 - parameter_spread) * (1 + flight.power_control)
-    return lin.push_n / lin.mass_kg * fastest, 2.0 * flight.beam_cutoff_s
+    fastest = (1 + parameter_spread) / (1 - parameter_spread) * (1 + task.power_control)
+    return lin.push_n / lin.mass_kg * fastest, 2.0 * task.beam_cutoff_s
 
 
-def farthest_distance_m(flight, lin, parameter_spread: float) -> float:
+def farthest_distance_m(task, lin, parameter_spread: float) -> float:
     """The farthest the sail can be from the array at a cut-off (the bound of :func:`fastest_flight`)."""
-    accel, horizon = fastest_flight(flight, lin, parameter_spread)
+    accel, horizon = fastest_flight(task, lin, parameter_spread)
     return 0.5 * accel * horizon**2
 
 
-def check_flight(flight, lin, parameter_spread: float) -> None:
-    """The flight's settings whose range depends on the sail's push and mass (``lin``) and its flight
-    (``flight``); the random disturbances check their own (:mod:`sail_env.physics.disturbances`)."""
-    sail = flight.sail
-    accel, _ = fastest_flight(flight, lin, parameter_spread)
-    window_end = flight.control_start_s + flight.control_window_s
+def check_flight(task, lin, parameter_spread: float) -> None:
+    """The flight's settings whose range depends on the sail's push and mass (``lin``) and its task
+    (``task``, a :class:`~sail_env.physics.rigid3d.plant.RigidTaskConfig`); the random disturbances
+    check their own (:mod:`sail_env.physics.disturbances`)."""
+    sail = task.sail
+    accel, _ = fastest_flight(task, lin, parameter_spread)
+    window_end = task.control_start_s + task.control_window_s
     window_distance = 0.5 * accel * window_end**2
     widest = _bisect(lambda s: sail.caught_fraction(s) >= MIN_CAUGHT_FRACTION, 1.0, 1e6)
     shortest = window_distance / widest
-    if not flight.diffraction_length_m >= shortest:
+    if not task.diffraction_length_m >= shortest:
         raise ValueError(f"diffraction_length_m must be >= {shortest:.4g} m (inf: no diffraction): the spot, widened "
                          f"by D/L0 up to the control window's end (D <= {window_distance:.4g} m), must still put >= "
-                         f"{MIN_CAUGHT_FRACTION:.0%} of the beam on the sail, got {flight.diffraction_length_m}")
+                         f"{MIN_CAUGHT_FRACTION:.0%} of the beam on the sail, got {task.diffraction_length_m}")
