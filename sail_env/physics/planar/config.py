@@ -19,7 +19,8 @@ from sail_env.physics.constants import SPEED_OF_LIGHT
 
 @dataclasses.dataclass(frozen=True)
 class SailConfig(seed.Timing, seed.SailBody):
-    """Planar light-sail parameters, SI units throughout.
+    """Planar light-sail parameters, SI units throughout; the defaults are the seed's design point
+    (:mod:`sail_env.physics.seed`, whose fields every sail model shares).
 
     Attributes:
         aperture_radius_m: Sail aperture radius ``a``; the flat-top beam has the same radius.
