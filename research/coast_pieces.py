@@ -39,7 +39,7 @@ import numpy as np
 import scipy.integrate
 import scipy.linalg
 
-from sail_env.physics.config import DEEP_DISH
+from sail_env.physics.planar.config import DEEP_DISH
 from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 

@@ -25,7 +25,7 @@ import time
 import numpy as np
 import scipy.integrate
 
-from sail_env.physics.config import DEEP_DISH
+from sail_env.physics.planar.config import DEEP_DISH
 from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d import BEAM_PROFILES, RigidSail, RigidSailConfig, state_from_small
 from sail_env.physics.rigid3d.body import small_state

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from sail_env.physics.config import DEEP_DISH, SEED
+from sail_env.physics.planar.config import DEEP_DISH, SEED
 from sail_env.physics.rigid3d.uncertainty import TASK_UNCERTAINTY
 from sail_env.physics.mission import diffraction_length_m
 

@@ -26,7 +26,7 @@ TERMINAL_INFO = {"terminal_pointing_rad", "terminal_envelope_rad", "is_success",
 def cases(draw) -> dict:
     """Keyword arguments of a planar env and an action seed, drawn from the documented limits."""
     spread = draw(st.floats(0.0, 0.9 * MAX_PARAMETER_SPREAD))
-    widen = (1 + spread) / (1 - spread)  # the spread box (sail_env.physics.planar_plant)
+    widen = (1 + spread) / (1 - spread)  # the spread box (sail_env.physics.planar.plant)
     lc = draw(st.floats(5.0, 15.0))
     # Flat, unstable (Lc < R), neutral (R = Lc) and deep dishes down to R = a.
     radius = draw(st.one_of(st.just(math.inf), st.just(lc), st.floats(SEED.aperture_radius_m * widen, 4 * lc)))

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sail_env.envs.rigid3d import LightSail3DEnv, rigid3d_vector_env
-from sail_env.physics.config import SEED
+from sail_env.physics.planar.config import SEED
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, MAX_CURVATURE_OVER_APERTURE, SHAPES, RigidSailConfig
 from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
 

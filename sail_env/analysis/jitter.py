@@ -16,7 +16,7 @@ Tolerance: a sail exactly on the beam at ``start_s`` and left to the jitter unti
 ends with ``V⊥ = (vx, vy)`` Gaussian, isotropic (the sail is axisymmetric and the jitter
 isotropic), so ``|V⊥|`` is Rayleigh: the PSD is tolerable when ``|V⊥|/Vz ≤ 10 nrad`` with
 the given probability (95 % by default, over both axes). The planar convention of
-:func:`sail_env.physics.noise.tolerable_jitter_psd` (one axis, two-sided) is ``axes=1``.
+:func:`sail_env.analysis.planar.tolerable_jitter_psd` (one axis, two-sided) is ``axes=1``.
 The per-step standard deviation of a jitter drawn afresh every control step ``dt`` and
 held is ``√(S_δ/dt)``.
 """
@@ -34,9 +34,9 @@ import scipy.optimize
 import scipy.special
 from threadpoolctl import threadpool_limits
 
-from sail_env.physics.config import DEEP_DISH, SEED, SailConfig
+from sail_env.physics.planar.config import DEEP_DISH, SEED, SailConfig
 from sail_env.physics.mission import ARRAY_DIAMETER_M, LASER_WAVELENGTH_M, diffraction_length_m
-from sail_env.physics.planar import PlanarModel
+from sail_env.physics.planar.model import PlanarModel
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import BEAM_PROFILES, RigidSailConfig

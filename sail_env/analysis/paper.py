@@ -24,8 +24,9 @@ import scipy.optimize
 from matplotlib.figure import Figure
 
 from sail_env.physics import (
-    DEEP_DISH, FLAT, SEED, EnvelopeEstimator, PlanarModel, SailConfig, push_force_from_laser,
+    DEEP_DISH, FLAT, SEED, PlanarModel, SailConfig, push_force_from_laser,
 )
+from sail_env.analysis.planar import EnvelopeEstimator
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.mission import (
     distance_flown_m,
@@ -34,7 +35,7 @@ from sail_env.physics.mission import (
     required_figure_of_merit,
     thermal_acceleration_limit,
 )
-from sail_env.physics.planar import THETA, VX, X
+from sail_env.physics.planar.model import THETA, VX, X
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.physics.relativity import LAWS, beta_history, time_to_beta
 from sail_env.provenance import package_versions

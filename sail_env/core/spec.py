@@ -12,8 +12,9 @@ import numpy as np
 
 from sail_env.core.delay import delay_steps
 from sail_env.core.plant import Plant
-from sail_env.physics.config import check_below_light_speed, real_number
-from sail_env.physics.disturbance import Disturbance, split_keywords
+from sail_env.physics.checks import check_below_light_speed, real_number
+from sail_env.physics.disturbance import Disturbance
+from sail_env.physics.disturbances import split_keywords
 from sail_env.physics.mission import one_way_light_delay_s
 
 #: Observation scales: the state is divided by these (rates by the model's fastest rate too).

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from sail_env.core.spec import EpisodeSpec
-from sail_env.physics.config import real_number
+from sail_env.physics.checks import real_number
 
 #: The keys ``reset(options=...)`` understands.
 OPTION_KEYS = ("initial_state",)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping
 from typing import Any
 
@@ -14,9 +13,9 @@ from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.core.state import EpisodeState
 from sail_env.envs.options import reset_seeds, reset_states
+from sail_env.envs.params import PlanarParams
 from sail_env.envs.rendering import SailRenderer, axis_views
-from sail_env.physics.config import PRESETS, SailConfig
-from sail_env.physics.planar_plant import PlanarPlant
+from sail_env.physics.planar.config import SailConfig
 
 _ONE = np.zeros(1, dtype=np.int64)
 #: Half-widths of the default uniform start distribution, ``(X, Vx, θ, ω)`` in SI.
@@ -25,14 +24,9 @@ DEFAULT_START_HALF_WIDTHS = (5e-3, 0.1, 2e-3, 1e-5)
 
 def planar_spec(config: SailConfig | str = "seed", **keywords: Any) -> EpisodeSpec:
     """The :class:`EpisodeSpec` of the planar keywords (see :class:`LightSailEnv`): the sail's
-    ``config`` (a :class:`SailConfig` or a preset's name) and the episode keywords of
+    ``config`` (:class:`~sail_env.envs.params.PlanarParams`) and the episode keywords of
     :func:`~sail_env.core.spec.task_spec`; a bad value is a ``ValueError`` naming its keyword."""
-    if isinstance(config, str) and config in PRESETS:
-        config = PRESETS[config]
-    if type(config) is not SailConfig:
-        raise ValueError(f"config must be a SailConfig or one of {sorted(PRESETS)}, got {config!r} "
-                         f"(SailConfig(**fields) builds one from a dict)")
-    return task_spec(functools.partial(PlanarPlant, config), DEFAULT_START_HALF_WIDTHS, **keywords)
+    return task_spec(PlanarParams(config).make_plant, DEFAULT_START_HALF_WIDTHS, **keywords)
 
 
 class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -43,7 +37,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     must leave the beam flying within 10 nrad of its target line, or it misses Proxima b
     by more than the Earth-Moon distance. The sail is the seed paper's spherical dish
     with a payload on struts (Team 258, MCM Problem A, eqs 16-19, corrected as in
-    ``sail_env.physics.planar``); in the plane it has four states, and a curved dish
+    ``sail_env.physics.planar.model``); in the plane it has four states, and a curved dish
     makes a restoring force but never damps: the passive sail never forgets a
     perturbation. The agent steers the beam during the early flight (the *control
     window*), the rest of the beam time to cut-off is propagated exactly with the last
@@ -65,7 +59,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     Actions outside [-1, 1] are clipped; a NaN or infinite action raises ``ValueError``.
     In this planar model both act through the beam's landing point on the sail,
-    ``d + Lc ψ`` (see ``sail_env.physics.planar``); the 3D model separates them.
+    ``d + Lc ψ`` (see ``sail_env.physics.planar.model``); the 3D model separates them.
 
     ## Observation Space
 

@@ -2,70 +2,23 @@
 
 from __future__ import annotations
 
-import functools
-import math
 from typing import Any
 
-import numpy as np
-
 from sail_env.core.spec import EpisodeSpec, task_spec
+from sail_env.envs.params import Rigid3DParams, split
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
-from sail_env.physics.config import SEED, real_number
-from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
-from sail_env.physics.rigid3d.config import BEAM_PROFILES, SHAPES, RigidSailConfig
-from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL
-from sail_env.physics.rigid3d.uncertainty import ModelUncertainty, UncertainTaskConfig, UncertainPlant
 
 #: ``(x, y, vx, vy, θx, θy, ωx, ωy)``: LightSail-v0's start box on each axis.
 START_HALF_WIDTHS_3D = (5e-3, 5e-3, 0.1, 0.1, 2e-3, 2e-3, 1e-5, 1e-5)
-#: Relative beam power at action ±1 of the power input with ``power_control=True``.
-DEFAULT_POWER_CONTROL = 0.1
 
 
-def power_input(power_control: object) -> float:
-    """``power_control`` as the relative power at action ±1: ``False`` or ``0`` is no power input,
-    ``True`` :data:`DEFAULT_POWER_CONTROL`, a number in ``[0, MAX_POWER_CONTROL]`` that power."""
-    if isinstance(power_control, (bool, np.bool_)):
-        return DEFAULT_POWER_CONTROL if power_control else 0.0
-    value = real_number(power_control, "power_control")
-    if not 0 <= value <= MAX_POWER_CONTROL:
-        raise ValueError(f"power_control must be a bool or a relative power in [0, {MAX_POWER_CONTROL}] (0 or False: "
-                         f"no power input; True: {DEFAULT_POWER_CONTROL}), got {power_control!r}")
-    return value
-
-
-def rigid3d_spec(*, sail_shape: str = "dish", beam_profile: str = "flat-top",
-                 curvature_radius_m: float = SEED.curvature_radius_m, com_distance_m: float = SEED.com_distance_m,
-                 absorptivity: float = 0.0, beam_radius_m: float | None = None, spin_rad_s: float = 0.0,
-                 relativistic: bool = False, diffraction_length_m: float = math.inf, payload_offset_m: float = 0.0,
-                 velocity_terms: bool = False, power_control: bool | float = False,
-                 control_start_s: float = SEED.control_start_s,
-                 model_uncertainty: ModelUncertainty | dict[str, float] | None = None, **keywords: Any) -> EpisodeSpec:
-    """The :class:`EpisodeSpec` of the 3D keywords (see :class:`LightSail3DEnv`) and the episode keywords of
-    :func:`~sail_env.core.spec.task_spec`; a bad value is a ``ValueError`` naming its keyword."""
-    for name, value, choices in (("sail_shape", sail_shape, SHAPES), ("beam_profile", beam_profile, BEAM_PROFILES)):
-        if not (isinstance(value, str) and value in choices):
-            raise ValueError(f"{name} must be one of {choices}, got {value!r}")
-    power_control = power_input(power_control)
-    absorptivity = real_number(absorptivity, "absorptivity")
-    if not 0 <= absorptivity <= 1:
-        raise ValueError(f"absorptivity must be in [0, 1], got {absorptivity!r}")
-    sail = RigidSailConfig(shape=sail_shape, beam_profile=beam_profile, curvature_radius_m=curvature_radius_m,
-                           com_distance_m=com_distance_m, absorptivity=absorptivity,
-                           reflectivity=1.0 - absorptivity, beam_radius_m=beam_radius_m)
-    if isinstance(model_uncertainty, dict):
-        model_uncertainty = ModelUncertainty(**model_uncertainty)
-    elif not (model_uncertainty is None or isinstance(model_uncertainty, ModelUncertainty)):
-        raise ValueError(f"model_uncertainty must be a ModelUncertainty, a dict of its fields or None, "
-                         f"got {model_uncertainty!r}")
-    # The unobserved per-episode sail (sail_env.physics.rigid3d.uncertainty) flies as an UncertainTaskConfig.
-    make_config, plant = ((RigidTaskConfig, RigidPlant) if model_uncertainty is None else
-                          (functools.partial(UncertainTaskConfig, uncertainty=model_uncertainty), UncertainPlant))
-    config = make_config(sail, spin_rad_s=spin_rad_s, power_control=power_control, relativistic=relativistic,
-                         diffraction_length_m=diffraction_length_m, payload_offset_m=payload_offset_m,
-                         velocity_terms=velocity_terms, control_start_s=control_start_s)
-    return task_spec(functools.partial(plant, config), START_HALF_WIDTHS_3D, **keywords)
+def rigid3d_spec(**keywords: Any) -> EpisodeSpec:
+    """The :class:`EpisodeSpec` of the 3D keywords (:class:`~sail_env.envs.params.Rigid3DParams`, the
+    table of :class:`LightSail3DEnv`) and the episode keywords of :func:`~sail_env.core.spec.task_spec`;
+    a bad value is a ``ValueError`` naming its keyword."""
+    own, episode = split(Rigid3DParams, keywords)
+    return task_spec(Rigid3DParams(**own).make_plant, START_HALF_WIDTHS_3D, **episode)
 
 
 class LightSail3DEnv(LightSailEnv):

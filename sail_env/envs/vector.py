@@ -33,7 +33,7 @@ from sail_env.core.spec import EpisodeSpec
 from sail_env.core.state import EpisodeState
 from sail_env.envs.options import reset_seeds, reset_states
 from sail_env.envs.planar import planar_spec
-from sail_env.physics.config import SailConfig
+from sail_env.physics.planar.config import SailConfig
 
 
 class LightSailVectorEnv(VectorEnv):

@@ -18,20 +18,20 @@ for the impulses (docs/physics.md §11, §15). The push noise, the sensor noise,
 jitter, the light delay and the parameter spread are the episode's own settings
 (:class:`sail_env.core.spec.Disturbances`): each has its own place in the step.
 
-The registered disturbances are in :mod:`sail_env.physics.disturbances` (one module each).
+The registered disturbances are in :mod:`sail_env.physics.disturbances` (one module each), which
+imports them and reads the filled registry (:func:`~sail_env.physics.disturbances.split_keywords`):
+this base imports none of them.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
-from sail_env.physics.config import real_number
+from sail_env.physics.checks import real_number
 
 #: Every registered disturbance class by each keyword it takes, in registration order.
 REGISTRY: dict[str, type[Disturbance]] = {}
@@ -95,31 +95,3 @@ def register(cls: type[Disturbance]) -> type[Disturbance]:
             raise ValueError(f"keyword {field.name!r} is already taken by {REGISTRY[field.name].__name__}")
         REGISTRY[field.name] = cls
     return cls
-
-
-def split_keywords(keywords: Mapping[str, object]) -> tuple[tuple[Disturbance, ...], dict[str, object]]:
-    """The active registered disturbances set by ``keywords`` (in registration order; each validates
-    its values, active or not) and the keywords that are not theirs."""
-    _load_modules()
-    classes: dict[type[Disturbance], dict[str, object]] = {}
-    rest = {}
-    for name, value in keywords.items():
-        if name in REGISTRY:
-            classes.setdefault(REGISTRY[name], {})[name] = value
-        else:
-            rest[name] = value
-    order = list(dict.fromkeys(REGISTRY.values()))
-    made = (cls(**classes[cls]) for cls in order if cls in classes)
-    return tuple(d for d in made if d.active), rest
-
-
-def keywords() -> tuple[str, ...]:
-    """Every registered keyword."""
-    _load_modules()
-    return tuple(REGISTRY)
-
-
-@functools.cache
-def _load_modules() -> None:
-    """Import the registered disturbances (their modules register themselves)."""
-    import sail_env.physics.disturbances  # noqa: F401

@@ -6,7 +6,7 @@ disturbances that act on the physics (the push noise and the registered random d
 propagations). It knows nothing of light delay,
 observations, rewards or episodes (``sail_env.core``). :class:`LinearPlant` holds what
 every linear model shares (the exact step, the envelope, the coast);
-``sail_env.physics.planar_plant.PlanarPlant`` is the planar model,
+``sail_env.physics.planar.plant.PlanarPlant`` is the planar model,
 ``sail_env.physics.rigid3d.plant.RigidPlant`` the 3D one.
 
 Every method works on a batch of environments: states ``x`` (k, n), inputs ``u`` (k, m)
@@ -261,9 +261,9 @@ class LinearPlant:
         """How many pieces :meth:`coast` splits each propagation into (one unless the sail is unstable)."""
         return np.maximum(1, np.ceil(duration * p.growth / GROWTH_PER_PIECE).astype(np.int64))
 
-    def _push_terms(self, p: PlantParams) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(∂A/∂ln F, ∂B/∂ln F)`` of the draws ``p`` for the moment generator (None: the planar model's)."""
-        return None
+    def _push_terms(self, p: PlantParams) -> tuple[np.ndarray, np.ndarray]:
+        """``(∂A/∂ln F, ∂B/∂ln F)`` of the draws ``p`` for the moment generator (each model supplies its own)."""
+        raise NotImplementedError
 
     def _moment_terms(self, p: PlantParams, u: np.ndarray, t: np.ndarray) -> tuple:
         """The arguments of :func:`~sail_env.physics.noise.moment_generator` (and of

@@ -1,4 +1,4 @@
-"""Exact first and second moments of the planar model driven by white noise.
+"""Exact first and second moments of a linear sail model driven by white noise.
 
 Two disturbances act over the whole beam time:
 
@@ -16,7 +16,7 @@ For a linear system with additive and multiplicative white noise the second mome
 
     dM/dt = Ã M + M Ãᵀ + S_F Ã_F M Ã_Fᵀ + S_d b bᵀ M[-1, -1]
 
-For the planar model the correction vanishes (``Ã_F² = 0``: the push scales forces that depend on
+For the planar model (:mod:`sail_env.physics.planar.model`) the correction vanishes (``Ã_F² = 0``: the push scales forces that depend on
 positions only), so the two readings agree there; it matters for a push-scaled force on a velocity.
 
 so it is propagated exactly by one matrix exponential of the vectorised generator
@@ -36,9 +36,6 @@ import functools
 
 import numpy as np
 import scipy.linalg
-import scipy.special
-
-from sail_env.physics.planar import PlanarModel, push_sensitivity
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,8 +64,8 @@ class WhiteNoise:
 
 
 def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
-                     push: tuple[np.ndarray, np.ndarray] | None = None,
-                     jitter_inputs: tuple[int, ...] = (0,), jitter_psd: np.ndarray | None = None,
+                     push: tuple[np.ndarray, np.ndarray], jitter_inputs: tuple[int, ...],
+                     jitter_psd: np.ndarray | None = None,
                      state_psd: np.ndarray | None = None) -> np.ndarray:
     """The ``h × h`` matrix ``G_h`` with ``d vech(M)/dt = G_h vech(M)``, ``h = (n+1)(n+2)/2``
     (:func:`_vech_maps`): :func:`vec_moment_generator` (same arguments) on the symmetric second moments,
@@ -83,13 +80,13 @@ def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Wh
 
 
 def vec_moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
-                         push: tuple[np.ndarray, np.ndarray] | None = None,
-                         jitter_inputs: tuple[int, ...] = (0,), jitter_psd: np.ndarray | None = None,
+                         push: tuple[np.ndarray, np.ndarray], jitter_inputs: tuple[int, ...],
+                         jitter_psd: np.ndarray | None = None,
                          state_psd: np.ndarray | None = None) -> np.ndarray:
     """The ``(n+1)² × (n+1)²`` matrix ``G`` with ``d vec(M)/dt = G vec(M)`` (row-major ``vec``),
     batched over the leading axes of ``a`` (..., n, n), ``b`` (..., n, m) and ``action`` (..., m).
 
-    ``push`` is ``(∂A/∂ln F, ∂B/∂ln F)``, by default the planar model's; the beam jitter acts,
+    ``push`` is ``(∂A/∂ln F, ∂B/∂ln F)``, which the model supplies; the beam jitter acts,
     independently and with the same PSD, on each input column in ``jitter_inputs``; ``jitter_psd``
     (batched like ``a``'s leading axes) replaces ``noise``'s beam-jitter PSD; ``state_psd`` (..., n, n)
     is white noise added to the state's derivative directly (its intensity matrix).
@@ -101,14 +98,14 @@ def vec_moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise
 
 
 def moment_matrices(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
-                    push: tuple[np.ndarray, np.ndarray] | None = None, jitter_inputs: tuple[int, ...] = (0,),
+                    push: tuple[np.ndarray, np.ndarray], jitter_inputs: tuple[int, ...],
                     jitter_psd: np.ndarray | None = None,
                     state_psd: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The augmented state's equation ``dz = Ã z dt + Ã_F z dW_F + dW`` (arguments as
     :func:`vec_moment_generator`): the Itô drift ``Ã`` (with ``½ S_F Ã_F²``) and the push noise's
     ``Ã_F``, both (*batch, n+1, n+1), and the additive intensity ``E[dW dWᵀ]/dt`` ((…, n+1, n+1), batched
     like ``b`` and ``jitter_psd``; zero in the constant's row and column)."""
-    a_push, b_push = push_sensitivity(a, b) if push is None else push
+    a_push, b_push = push
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
     n = a.shape[-1]
     drift = np.zeros((*batch, n + 1, n + 1))
@@ -130,7 +127,7 @@ def moment_matrices(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Whi
 
 
 def _generator_rows(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
-                    push: tuple[np.ndarray, np.ndarray] | None, jitter_inputs: tuple[int, ...],
+                    push: tuple[np.ndarray, np.ndarray], jitter_inputs: tuple[int, ...],
                     jitter_psd: np.ndarray | None, state_psd: np.ndarray | None, rows: np.ndarray,
                     cols: np.ndarray) -> np.ndarray:
     """``dM_ij/dt`` for the entries ``(rows, cols)`` (r,) as coefficients of ``M`` (..., r, n+1, n+1):
@@ -163,13 +160,13 @@ def moment_propagator(generator: np.ndarray, duration: np.ndarray, units: np.nda
 
 
 def moment_growth_rate(a: np.ndarray, b: np.ndarray, noise: WhiteNoise,
-                       push: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                       push: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """Growth rate [1/s] of the state's spread under the noise, batched like ``a`` (..., n, n): half
     the largest real part of the moment generator's eigenvalues (``push`` as in
     :func:`vec_moment_generator`; the beam jitter and the input only drive the moments). Multiplicative
     push noise makes the second moment grow even where the noise-free sail only oscillates (parametric
     excitation), so a long noisy propagation must be split by this rate, not the noise-free one."""
-    generator = moment_generator(a, b, np.zeros((*a.shape[:-2], b.shape[-1])), noise, push)
+    generator = moment_generator(a, b, np.zeros((*a.shape[:-2], b.shape[-1])), noise, push, ())
     return 0.5 * np.linalg.eigvals(generator).real.max(axis=-1)
 
 
@@ -206,35 +203,3 @@ def mean_and_covariance(second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     full = second[..., position].reshape(*second.shape[:-1], size, size)
     mean = full[..., :n, n]
     return mean, full[..., :n, :n] - mean[..., :, None] * mean[..., None, :]
-
-
-def propagate_moments(model: PlanarModel, mean: np.ndarray, cov: np.ndarray,
-                      action: np.ndarray, duration: float,
-                      noise: WhiteNoise) -> tuple[np.ndarray, np.ndarray]:
-    """Mean and covariance of the state after ``duration`` s with ``action`` held."""
-    if not duration >= 0:
-        raise ValueError(f"duration must be >= 0, got {duration}")
-    action = np.asarray(action, dtype=float)
-    if noise.beam_jitter_psd_m2s == 0 and noise.push_psd_s == 0:
-        # Noise-free: the exact propagator, free of the cancellation in M − mean meanᵀ.
-        phi, gamma = model.discretize(duration)
-        return phi @ mean + gamma @ action, phi @ cov @ phi.T
-    gen = moment_generator(model.A, model.B, action, noise)
-    return mean_and_covariance(scipy.linalg.expm(gen * duration) @ second_moment(mean, cov))
-
-
-def tolerable_jitter_psd(model: PlanarModel, duration: float, tolerance_rad: float,
-                         cutoff_s: float, probability: float = 0.95) -> float:
-    """Largest beam-jitter PSD [m² s] that keeps ``|V⊥|/Vz ≤ tolerance_rad`` at cut-off
-    with the given probability, for a sail that is perfectly on the beam ``duration``
-    seconds before cut-off and then left to the jitter (docs/physics.md §3).
-
-    The velocity variance is linear in the PSD, so one unit-PSD propagation suffices.
-    """
-    if not 0 < probability < 1:
-        raise ValueError(f"probability must be in (0, 1), got {probability}")
-    _, unit_cov = propagate_moments(model, np.zeros(4), np.zeros((4, 4)), np.zeros(2), duration,
-                                    WhiteNoise(beam_jitter_psd_m2s=1.0))
-    quantile = float(scipy.special.ndtri(0.5 + probability / 2))
-    allowed_speed = tolerance_rad * model.equilibrium_speed(cutoff_s) / quantile
-    return allowed_speed**2 / unit_cov[1, 1]

@@ -5,7 +5,9 @@ error is ``|V⊥| / Vz`` at ``t_cut`` (the lateral offset, metres, is negligible
 4.25 light-years). The seed paper (its §3.4) scores the sail's tilt θ instead; that is
 not the flight direction. Because V⊥ oscillates at ~70 rad/s, the value at cut-off
 depends on the cut-off phase, so we also report the *envelope*: the largest
-``|V⊥|/Vz`` over a look-ahead with the beam kept on and the input held.
+``|V⊥|/Vz`` over a look-ahead with the beam kept on and the input held. Each model supplies
+its velocity rows and mode rates (the planar model's pointing of one state is
+:func:`sail_env.physics.planar.model.pointing_error`).
 """
 
 from __future__ import annotations
@@ -14,7 +16,6 @@ import numpy as np
 
 from sail_env.jit import compiled
 from sail_env.physics.linear import zoh_discretize
-from sail_env.physics.planar import VX, PlanarModel, rates
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
@@ -29,14 +30,9 @@ POINTING_TOLERANCE_RAD = 1e-8
 MAX_LOOKAHEAD_GROWTH = 20.0
 
 
-def pointing_error(model: PlanarModel, state: np.ndarray, t: float) -> float:
-    """``|Vx| / Vz`` [rad] for a state at flight time ``t`` (beam cut off then)."""
-    return abs(float(state[VX])) / model.equilibrium_speed(t)
-
-
-def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_per_fast_period: int = 32,
-                   max_samples: int = 2048, rows: tuple[int, ...] = (VX,),
-                   mode_rates: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+def envelope_table(a: np.ndarray, b: np.ndarray, *, rows: tuple[int, ...],
+                   mode_rates: tuple[np.ndarray, np.ndarray], periods: float = 1.0,
+                   samples_per_fast_period: int = 32, max_samples: int = 2048) -> np.ndarray:
     """Rows ``[Φ(t_i)[r], Γ(t_i)[r]]`` for each ``r`` in ``rows`` (..., S, R·(n + m)) over the
     look-ahead of each model in a batch (planar: the one row Vx, (..., S, 6)).
 
@@ -47,10 +43,11 @@ def envelope_table(a: np.ndarray, b: np.ndarray, periods: float = 1.0, samples_p
     oscillation looks ahead five e-folding times (at least 5 s); an unstable one at most
     :data:`MAX_LOOKAHEAD_GROWTH` e-folds. Each model gets its own
     number of samples; shorter tables are padded with their last row, which leaves the
-    maximum unchanged. ``mode_rates`` is ``(growth (...,), frequencies (..., 2), NaN where
-    none)``, by default the planar closed form :func:`~sail_env.physics.planar.rates`.
+    maximum unchanged. The model supplies its velocity ``rows`` and ``mode_rates``: ``(growth
+    (...,), frequencies (..., 2), NaN where none)`` (the planar closed form
+    :func:`~sail_env.physics.planar.model.rates`, or :func:`~sail_env.physics.linear.mode_rates`).
     """
-    growth, freqs = rates(a) if mode_rates is None else mode_rates
+    growth, freqs = mode_rates
     growth, freqs = np.atleast_1d(growth), np.atleast_2d(freqs)
     count = np.sum(~np.isnan(freqs), axis=-1)
     slowest = np.nanmin(np.where(count[:, None] > 0, freqs, np.inf), axis=-1)
@@ -130,15 +127,3 @@ def peak_speed(table: np.ndarray, state: np.ndarray, action: np.ndarray, rows: i
     if table.ndim == 2:
         return np.abs(z @ table.T).max(axis=-1)
     return np.abs(np.matmul(table, z[..., None])).max(axis=(-2, -1))
-
-
-class EnvelopeEstimator:
-    """The envelope of one model: :func:`envelope_table` kept for repeated queries."""
-
-    def __init__(self, model: PlanarModel, periods: float = 1.0,
-                 samples_per_fast_period: int = 32, max_samples: int = 2048) -> None:
-        self.table = envelope_table(model.A, model.B, periods, samples_per_fast_period, max_samples)
-
-    def peak_speed(self, state: np.ndarray, action: np.ndarray) -> float:
-        """max over the look-ahead of ``|Vx|`` [m/s], input ``action`` held."""
-        return float(peak_speed(self.table, state, action))

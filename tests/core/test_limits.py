@@ -13,8 +13,8 @@ from sail_env.core.spec import MAX_PUSH_NOISE, Disturbances, task_spec
 from sail_env.envs import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
-from sail_env.physics.config import MAX_CONTROL_STEPS
-from sail_env.physics.planar_plant import PlanarPlant
+from sail_env.physics.checks import MAX_CONTROL_STEPS
+from sail_env.physics.planar.plant import PlanarPlant
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.plant import RigidTaskConfig
 from sail_env.physics.constants import SPEED_OF_LIGHT

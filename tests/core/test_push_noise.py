@@ -7,7 +7,7 @@ import scipy.stats
 from sail_env.envs.planar import planar_spec
 from sail_env.physics import DEEP_DISH
 from sail_env.physics.linear import zoh_discretize
-from sail_env.physics.planar import push_sensitivity
+from sail_env.physics.planar.model import push_sensitivity
 
 
 def _window(spec, x0, actions, normals, exact):

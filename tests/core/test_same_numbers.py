@@ -10,7 +10,7 @@ import pytest
 
 import sail_env  # noqa: F401
 from sail_env.physics import DEEP_DISH, SEED
-from sail_env.physics.planar import STATE_NAMES
+from sail_env.physics.planar.model import STATE_NAMES
 from sail_env.tasks import PLANAR_TASKS as TASKS
 
 REFERENCE = json.loads((Path(__file__).parents[1] / "data" / "episodes_v0_1_0.json").read_text())

@@ -261,7 +261,7 @@ def test_strong_push_noise_on_the_deep_dish_ends_cleanly():
     """The spread grows as e^{1.06 t} (parametric excitation): over the coast in one piece the moments
     overflowed (``LinAlgError``); in pieces of e^20 the sail leaves the beam and the episode is scored
     as diverged, every observation finite and no floating-point warning."""
-    from sail_env.physics.config import DEEP_DISH
+    from sail_env.physics.planar.config import DEEP_DISH
 
     env = gym.make("LightSail3D-v0", push_noise=0.25, curvature_radius_m=DEEP_DISH.curvature_radius_m)
     with warnings.catch_warnings():

@@ -15,8 +15,10 @@ import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.core.spec import Disturbances, task_spec
-from sail_env.envs.rigid3d import LightSail3DEnv, rigid3d_spec
-from sail_env.physics import disturbance
+from sail_env.envs import params
+from sail_env.envs.planar import LightSailEnv
+from sail_env.envs.rigid3d import LightSail3DEnv
+from sail_env.physics import disturbances
 
 
 def _refused(kwargs: dict, field: str) -> str:
@@ -78,11 +80,11 @@ def test_values_at_the_limits_play_a_finite_episode(kwargs):
 def env_keywords() -> list[str]:
     """Every keyword of the 3D envs: the 3D ones, the episode keywords every env shares and the
     registered random disturbances' (the 3D sail carries them all)."""
-    own = [name for name in inspect.signature(rigid3d_spec).parameters if name != "keywords"]
+    own = list(params.keywords(params.Rigid3DParams))
     shared = [name for name in inspect.signature(task_spec).parameters
               if name not in ("make_plant", "default_start_half_widths", "disturbances")]
     episode = [field.name for field in dataclasses.fields(Disturbances) if field.name != "sources"]
-    return own + shared + episode + list(disturbance.keywords())
+    return own + shared + episode + list(disturbances.keywords())
 
 
 def test_every_keyword_is_in_the_docstrings_table_with_its_range():
@@ -90,6 +92,37 @@ def test_every_keyword_is_in_the_docstrings_table_with_its_range():
     for name in env_keywords():
         assert f"``{name}``" in table, name
     assert "π / dt" in table  # the range as a rule, not one setting's number
+
+
+def _table_rows(env: type) -> dict[str, str]:
+    """The ``## Arguments`` table of ``env``'s docstring: each keyword its row names, and the row's default."""
+    table = env.__doc__.split("## Arguments")[1]
+    rows = {}
+    for line in table.splitlines():
+        cells = [cell.strip() for cell in line.split("|")[1:-1]]
+        if len(cells) >= 2 and cells[0].startswith("``"):
+            for name in re.findall(r"``(\w+)``", cells[0]):
+                rows[name] = cells[1]
+    return rows
+
+
+def _shown(value: object) -> str:
+    """A default as the tables write it."""
+    return f'``"{value}"``' if isinstance(value, str) else f"{value:g}" if isinstance(value, float) else str(value)
+
+
+@pytest.mark.parametrize("env, family, everything", [(LightSail3DEnv, params.Rigid3DParams, env_keywords),
+                                                      (LightSailEnv, params.PlanarParams, None)])
+def test_the_tables_name_only_keywords_and_the_params_defaults(env, family, everything):
+    """Each model family's keywords are declared once (:mod:`sail_env.envs.params`): its env's table
+    names no keyword that does not exist and shows each of the family's own keywords with the
+    params' default, so that neither can change without the other."""
+    rows = _table_rows(env)
+    if everything is not None:
+        assert set(rows) == set(everything())
+    for field in dataclasses.fields(family):
+        if field.init:
+            assert rows[field.name] == _shown(field.default), field.name
 
 
 NUMERIC = {"curvature_radius_m": 12.0, "com_distance_m": 9.0, "absorptivity": 0.1, "beam_radius_m": 1.5,

@@ -13,8 +13,8 @@ import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
 from sail_env.physics import disturbance
-from sail_env.physics.disturbance import BeamDisturbance, ImpulseDisturbance, register, split_keywords
-from sail_env.physics.disturbances import Dust, GroundJitter, LandingJitter
+from sail_env.physics.disturbance import BeamDisturbance, ImpulseDisturbance, register
+from sail_env.physics.disturbances import Dust, GroundJitter, LandingJitter, split_keywords
 
 
 @dataclasses.dataclass(frozen=True)

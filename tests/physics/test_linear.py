@@ -7,7 +7,7 @@ import scipy.linalg
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel
 from sail_env.physics import linear
 from sail_env.physics.linear import push_expansion, sample_gaussian, symmetric_root, zoh_discretize
-from sail_env.physics.planar import push_sensitivity, rates, system_matrices
+from sail_env.physics.planar.model import push_sensitivity, rates, system_matrices
 from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise
 
 

@@ -4,7 +4,7 @@ import scipy.integrate
 import scipy.linalg
 
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel, WhiteNoise, propagate_moments
-from sail_env.physics.planar import push_sensitivity
+from sail_env.physics.planar.model import push_sensitivity
 
 
 def test_noise_free_moments_are_the_exact_propagation():
@@ -82,13 +82,14 @@ def test_stratonovich_correction_matches_geometric_brownian_motion():
     whole difference between the Stratonovich and the Itô mean (exp(-0.5) against exp(-1)).
     """
     from sail_env.physics.noise import mean_and_covariance, moment_generator, second_moment
-    from sail_env.physics.planar import VX, push_sensitivity
+    from sail_env.physics.planar.model import VX, push_sensitivity
 
     rate, psd, duration, v0 = -1.0, 1.0, 1.0, 2.0
     a = np.zeros((4, 4))
     a[VX, VX] = rate
     start = np.array([0.0, v0, 0.0, 0.0])
-    gen = moment_generator(a, np.zeros((4, 2)), np.zeros(2), WhiteNoise(push_psd_s=psd))
+    gen = moment_generator(a, np.zeros((4, 2)), np.zeros(2), WhiteNoise(push_psd_s=psd),
+                           push_sensitivity(a, np.zeros((4, 2))), (0,))
     mean, cov = mean_and_covariance(scipy.linalg.expm(gen * duration) @ second_moment(start, np.zeros((4, 4))))
     expected_mean = v0 * np.exp((rate + 0.5 * psd * rate**2) * duration)
     expected_square = v0**2 * np.exp(2 * (rate + psd * rate**2) * duration)
@@ -111,8 +112,10 @@ def test_moment_growth_rate_with_additive_noise_is_the_sails_own():
     noise = WhiteNoise(beam_jitter_psd_m2s=1e-10)
     flat, dish = PlanarModel(FLAT), PlanarModel(DEEP_DISH)
     assert flat.stability.growth_rate > 50.0 and dish.stability.growth_rate == 0.0
-    assert moment_growth_rate(flat.A, flat.B, noise) == pytest.approx(flat.stability.growth_rate, rel=1e-9)
-    batch = moment_growth_rate(np.stack([flat.A, dish.A]), np.stack([flat.B, dish.B]), noise)
+    assert moment_growth_rate(flat.A, flat.B, noise, flat.push_sensitivity) == pytest.approx(
+        flat.stability.growth_rate, rel=1e-9)
+    a, b = np.stack([flat.A, dish.A]), np.stack([flat.B, dish.B])
+    batch = moment_growth_rate(a, b, noise, push_sensitivity(a, b))
     assert batch.shape == (2,)
     assert batch == pytest.approx([flat.stability.growth_rate, 0.0], rel=1e-9, abs=1e-9 * flat.stability.growth_rate)
 
@@ -122,7 +125,7 @@ def test_noise_validation():
         WhiteNoise(push_psd_s=-1.0)
     with pytest.raises(ValueError, match="duration"):
         propagate_moments(PlanarModel(SEED), np.zeros(4), np.zeros((4, 4)), np.zeros(2), -1.0, WhiteNoise())
-    from sail_env.physics.noise import tolerable_jitter_psd
+    from sail_env.analysis.planar import tolerable_jitter_psd
 
     for probability in (0.0, 1.0, 1.5):
         with pytest.raises(ValueError, match=rf"probability must be in \(0, 1\), got {probability}"):
@@ -131,7 +134,7 @@ def test_noise_validation():
 
 def test_tolerable_jitter_matches_the_driven_oscillator():
     """At the seed point only the X oscillator feels the jitter: E[Vx²] = b² S (t/2 + sin 2ωt / 4ω)."""
-    from sail_env.physics.noise import tolerable_jitter_psd
+    from sail_env.analysis.planar import tolerable_jitter_psd
 
     model = PlanarModel(SEED)
     b = model.B[1, 0]
@@ -237,7 +240,7 @@ def test_half_vectorised_coasts_of_the_real_plants_are_the_full_ones():
     from sail_env.physics.linear import zoh_discretize
     from sail_env.physics.noise import mean_and_covariance, second_moment, vec_moment_generator
     from sail_env.physics.disturbances import LandingJitter
-    from sail_env.physics.planar_plant import PlanarPlant
+    from sail_env.physics.planar.plant import PlanarPlant
     from sail_env.tasks import TASKS
 
     rng = np.random.default_rng(5)

@@ -12,7 +12,7 @@ import scipy.integrate
 import scipy.interpolate
 import scipy.optimize
 
-from sail_env.physics.config import DEEP_DISH
+from sail_env.physics.planar.config import DEEP_DISH
 from sail_env.physics.disturbances import GroundJitter
 from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail

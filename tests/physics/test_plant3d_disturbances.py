@@ -9,7 +9,7 @@ import scipy.linalg
 
 from sail_env.core import EpisodeCore
 from sail_env.envs.rigid3d import rigid3d_spec
-from sail_env.physics.disturbance import split_keywords
+from sail_env.physics.disturbances import split_keywords
 from sail_env.physics.noise import mean_and_covariance, second_moment
 from sail_env.physics.rigid3d.plant import OMEGA_Y, THETA_Y, RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d import RigidSailConfig

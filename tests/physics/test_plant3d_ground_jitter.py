@@ -7,7 +7,7 @@ import numpy as np
 
 from sail_env.physics.noise import mean_and_covariance, second_moment
 from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant
-from sail_env.physics.disturbance import split_keywords
+from sail_env.physics.disturbances import split_keywords
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.analysis.jitter import accumulate_covariance
 

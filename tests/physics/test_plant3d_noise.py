@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sail_env.physics import linear_plant as plant_module
-from sail_env.physics.config import DEEP_DISH
+from sail_env.physics.planar.config import DEEP_DISH
 from sail_env.physics.linear import mode_rates
 from sail_env.physics.noise import mean_and_covariance, moment_propagator, second_moment, vec_moment_generator
 from sail_env.physics.rigid3d.plant import RigidTaskConfig, RigidPlant

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.integrate
 
-from sail_env.physics.config import DEEP_DISH
+from sail_env.physics.planar.config import DEEP_DISH
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.rigid3d.plant import COAST_SEGMENT_S, RigidTaskConfig, RigidPlant
 from sail_env.physics.relativity import time_to_beta

@@ -3,7 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from sail_env.physics import DEEP_DISH, SEED, EnvelopeEstimator, PlanarModel, pointing_error
+from sail_env.analysis.planar import EnvelopeEstimator
+from sail_env.physics import DEEP_DISH, SEED, PlanarModel, pointing_error
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 

@@ -7,9 +7,10 @@ import pytest
 
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise
-from sail_env.physics.rigid3d.damping import (damped_linearisation, element_force_change, flight_e_folds,
-                                              mode_damping_rates, rate_jacobian)
+from sail_env.physics.rigid3d.damping import (damped_linearisation, element_force_change, mode_damping_rates,
+                                              rate_jacobian)
 from sail_env.physics.rigid3d.flight import fly
+from sail_env.analysis.damping import flight_e_folds
 from sail_env.analysis.jitter import matched_sail
 
 

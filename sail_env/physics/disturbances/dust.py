@@ -1,5 +1,6 @@
 """Interplanetary dust swept up by the sail: random kicks of its lateral speeds and tilt rates
-(a compound Poisson process; docs/physics.md §15)."""
+(a compound Poisson process; docs/physics.md §15), and the limits that keep the impacts a
+perturbation. The plant supplies what they depend on (its rows, its sail, its fastest flight)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,15 @@ from typing import Any
 
 import numpy as np
 
+from sail_env.physics.constants import HYDROGEN_MASS_KG
 from sail_env.physics.disturbance import ImpulseDisturbance, register
-from sail_env.physics.rigid3d.limits import DUST_SPEED_M_S, check_dust, check_grain_mass
-from sail_env.physics.rigid3d.plant import OMEGA_X, OMEGA_Y, VX, VY
+
+#: Largest axial drag of the swept-up dust (``n m_g π a² v²``, which the model leaves out) as a
+#: fraction of the push: the impacts must stay a perturbation of a beam-riding sail.
+MAX_DUST_DRAG_FRACTION = 0.01
+#: Mean speed [m/s] of interplanetary grains at 1 AU (Grün et al. 1985): with the sail's axial
+#: speed it sets the impact speed; its per-axis share ``/√3`` sets the lateral momentum of a grain.
+DUST_SPEED_M_S = 2.0e4
 
 
 @register
@@ -23,7 +30,7 @@ class Dust(ImpulseDisturbance):
 
     Both must be > 0 to switch the impacts on. The swept dust's drag must stay under 1 % of the
     push and no single grain may throw the sail out of the beam within a step
-    (:func:`~sail_env.physics.rigid3d.limits.check_dust`). Only the rigid 3D sail carries it.
+    (:func:`check_dust`). Only a plant with tilt rates (``tilt_rate_rows``: the rigid 3D sail) carries it.
     """
 
     dust_density_m3: float = 0.0
@@ -34,14 +41,13 @@ class Dust(ImpulseDisturbance):
         check_grain_mass(self.dust_grain_mass_kg)
 
     def check(self, plant: Any) -> None:
-        if not hasattr(plant, "linearisation"):
+        if not hasattr(plant, "tilt_rate_rows"):
             raise ValueError(f"dust_density_m3 and dust_grain_mass_kg need the rigid 3D sail (its tilt rates and "
                              f"inertia); {type(plant).__name__} has none")
-        check_dust(plant.config, plant.linearisation, plant.parameter_spread, self.dust_density_m3,
-                   self.dust_grain_mass_kg)
+        check_dust(plant, self.dust_density_m3, self.dust_grain_mass_kg)
 
     def rows(self, plant: Any) -> tuple[int, ...]:
-        return VX, VY, OMEGA_X, OMEGA_Y
+        return (*plant.velocity_rows, *plant.tilt_rate_rows)
 
     def rate_and_kick(self, plant: Any, p: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The sail of aperture ``a`` sweeps ``n π a² v`` grains a second at the impact speed ``v``;
@@ -56,3 +62,31 @@ class Dust(ImpulseDisturbance):
         lateral = np.full_like(speed, grain * DUST_SPEED_M_S / math.sqrt(3.0) / lin.mass_kg)
         angular = grain * speed * 0.5 * radius / lin.inertia[0, 0]
         return rate, np.stack([lateral, lateral, angular, angular], axis=-1)
+
+
+def check_grain_mass(grain_mass_kg: float) -> None:
+    """A grain is 0 (no dust) or at least a hydrogen atom: nothing lighter can be swept up."""
+    if 0 < grain_mass_kg < HYDROGEN_MASS_KG:
+        raise ValueError(f"dust_grain_mass_kg must be 0 (no dust) or >= {HYDROGEN_MASS_KG:.4g} kg (a hydrogen atom), "
+                         f"got {grain_mass_kg}")
+
+
+def check_dust(plant: Any, density_m3: float, grain_mass_kg: float) -> None:
+    """The impacts must stay a perturbation: their drag ``n m_g π a² v²`` under
+    :data:`MAX_DUST_DRAG_FRACTION` of the push, and no single grain (hitting the rim at the fastest
+    speed) kicking the sail out of the small-angle regime or the beam within a control step (the
+    start limits' rule). ``plant`` supplies its linearisation (push, mass, inertia), aperture, tilt
+    limit, configuration (its control step) and its flight's fastest speed (a Newtonian bound)."""
+    lin, a, tilt = plant.linearisation, plant.aperture_radius_m, plant.tilt_limit_rad
+    dt = plant.config.control_step_s
+    speed = math.hypot(plant.fastest_speed_m_s, DUST_SPEED_M_S)
+    densest = MAX_DUST_DRAG_FRACTION * lin.push_n / (grain_mass_kg * math.pi * a**2 * speed**2)
+    if density_m3 > densest:
+        raise ValueError(f"dust_density_m3 must be <= {densest:.4g} per m³ for grains of {grain_mass_kg:g} kg (the "
+                         f"swept dust's drag at {speed:.4g} m/s under {MAX_DUST_DRAG_FRACTION:.0%} of the push), "
+                         f"got {density_m3}")
+    heaviest = min(tilt / dt * lin.inertia[0, 0] / (speed * a), a / dt * lin.mass_kg * math.sqrt(3) / DUST_SPEED_M_S)
+    if grain_mass_kg > heaviest:
+        raise ValueError(f"dust_grain_mass_kg must be <= {heaviest:.4g} kg (one grain hitting the rim at {speed:.4g} "
+                         f"m/s must not throw the sail out of the beam or the small-angle regime within a control "
+                         f"step), got {grain_mass_kg}")

@@ -1,9 +1,9 @@
 """Configuration of the rigid 3D sail: shape, materials, masses, beam and quadrature (SI units).
 
-The geometry extends :class:`sail_env.physics.config.SailConfig` (the seed's planar model):
+The geometry extends the seed's planar model's (:class:`sail_env.physics.planar.config.SailConfig`):
 the sail axis points away from the laser, the centre of mass (CoM) lies ``Lc`` behind the
 sail's vertex (towards the laser), the payload ``L`` behind it. The defaults are the seed's
-design point (a = 2 m, R = Lc = 10 m, L = 20 m, 0.5 g + 0.5 g) in a flat-top beam of the
+design point (:mod:`sail_env.physics.seed`: a = 2 m, R = Lc = 10 m, L = 20 m, 0.5 g + 0.5 g) in a flat-top beam of the
 aperture's size whose power gives the seed's push ``2P/c = 100 N`` on a flat mirror.
 """
 
@@ -13,17 +13,16 @@ import dataclasses
 import math
 import numbers
 
-import scipy.special
-
-from sail_env.physics.config import SEED, real_number
+from sail_env.physics import seed
+from sail_env.physics.checks import real_number
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.mission import LASER_WAVELENGTH_M
+from sail_env.physics.rigid3d.beams import BEAM_PROFILES, BeamProfile
 
 SHAPES = ("dish", "balloon", "flat", "cone")
-BEAM_PROFILES = ("flat-top", "gaussian", "multi-gaussian", "annulus")
 
 #: Beam power whose push on a perfect flat mirror catching all of it is the seed's 100 N.
-SEED_BEAM_POWER_W = SEED.push_force_n * SPEED_OF_LIGHT / 2.0
+SEED_BEAM_POWER_W = seed.PUSH_FORCE_N * SPEED_OF_LIGHT / 2.0
 #: Largest ``R / a`` of a curved sail. The curvature's terms go as ``a/R``: at ``R = 1e4 a`` (a sag of
 #: ``a/2e4``, 0.1 mm on the seed's 2 m sail) they are 1e-4 of the flat sail's, the surface quadrature's
 #: own accuracy (:data:`WAIST_NODE_SPACINGS`), so a flatter sail is ``shape="flat"`` within the model's
@@ -47,7 +46,7 @@ BEAM_RADIUS_LIMITS = {"flat-top": "no beam focuses below its wavelength",
 
 
 @dataclasses.dataclass(frozen=True)
-class RigidSailConfig:
+class RigidSailConfig(seed.SailBody):
     """Rigid 3D light sail in a laser beam (docs/physics.md §6).
 
     Attributes:
@@ -77,12 +76,6 @@ class RigidSailConfig:
     """
 
     shape: str = "dish"
-    aperture_radius_m: float = SEED.aperture_radius_m
-    curvature_radius_m: float = SEED.curvature_radius_m
-    com_distance_m: float = SEED.com_distance_m
-    strut_length_m: float = SEED.strut_length_m
-    sail_mass_kg: float = SEED.sail_mass_kg
-    craft_mass_kg: float = SEED.craft_mass_kg
     strut_mass_kg: float = 0.0
     reflectivity: float = 1.0
     absorptivity: float = 0.0
@@ -96,8 +89,8 @@ class RigidSailConfig:
     angular_nodes: int = 128
 
     def __post_init__(self) -> None:
-        _check_choice("shape", self.shape, SHAPES)
-        _check_choice("beam_profile", self.beam_profile, BEAM_PROFILES)
+        check_choice("shape", self.shape, SHAPES)
+        check_choice("beam_profile", self.beam_profile, BEAM_PROFILES)
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
             if field.type in ("str",) or value is None:
@@ -145,7 +138,7 @@ class RigidSailConfig:
 
     def _check_spot(self) -> None:
         """The beam's radius within :meth:`beam_radius_range` (and a multi-Gaussian's lobes resolved)."""
-        if self.beam_profile == "multi-gaussian" and not self.lobe_waist_m >= self.min_waist_m:
+        if self.beam().ring and not self.lobe_waist_m >= self.min_waist_m:
             raise ValueError(f"beam_lobe_waist_m must be >= {self.min_waist_m:.4g} m (a Gaussian waist spans "
                              f"{WAIST_NODE_SPACINGS:g} radial node spacings of the surface quadrature), "
                              f"got {self.lobe_waist_m}")
@@ -160,9 +153,7 @@ class RigidSailConfig:
         """``beam_radius_m``'s valid range: from the smallest spot the quadrature resolves (a Gaussian's
         waist) or a beam can focus to (its wavelength) to the widest whose power the sail still catches
         :data:`MIN_CAUGHT_FRACTION` of (bisected: the caught fraction falls as the radius grows)."""
-        low = {"gaussian": self.min_waist_m, "multi-gaussian": 0.0}.get(self.beam_profile, LASER_WAVELENGTH_M)
-        if self.beam_profile == "annulus" and self.beam_inner_radius_m is None:
-            low *= 2.0  # the inner edge, half the outer radius, is the smaller spot
+        low = self.beam().smallest_radius_m(self.min_waist_m, LASER_WAVELENGTH_M, self.beam_inner_radius_m is not None)
         below, above = self.aperture_radius_m * 1e-3, self.aperture_radius_m / math.sqrt(MIN_CAUGHT_FRACTION) * 1e3
         for _ in range(60):
             middle = math.sqrt(below * above)
@@ -177,28 +168,19 @@ class RigidSailConfig:
     def caught_fraction(self, scale: float = 1.0, outer_m: float | None = None) -> float:
         """Fraction of the beam's power crossing the sail's disc of radius ``a`` (centred, the spot
         widened by ``scale``; with the outer radius ``outer_m`` instead of the configured one)."""
-        a = self.aperture_radius_m / scale
+        return self.beam(outer_m).caught_fraction(self.aperture_radius_m / scale)
+
+    def beam(self, outer_m: float | None = None) -> BeamProfile:
+        """The beam's profile (with the outer radius ``outer_m`` instead of the configured one; a
+        default inner radius follows it)."""
         outer = self.outer_beam_radius_m if outer_m is None else outer_m
-        if self.beam_profile in ("flat-top", "annulus"):
-            inner = 0.5 * outer if self.beam_inner_radius_m is None else self.beam_inner_radius_m
-            inner = inner if self.beam_profile == "annulus" else 0.0
-            # Ratios to the outer radius: no square overflows for any finite radius.
-            caught = min(a / outer, 1.0) ** 2 - min(a / outer, inner / outer) ** 2
-            return max(caught, 0.0) / (1.0 - (inner / outer) ** 2)
-        multi = self.beam_profile == "multi-gaussian"
-        sigma = 0.5 * (self.lobe_waist_m if multi else outer)
-        centre = outer if multi else 0.0
-        # A Gaussian of standard deviation σ per axis centred at r: |p|²/σ² is non-central χ² with 2 degrees.
-        return float(scipy.special.chndtr((a / sigma) ** 2, 2, (centre / sigma) ** 2))  # ncx2.cdf without importing scipy.stats (0.35 s)
+        inner = 0.5 * outer if self.beam_inner_radius_m is None else self.beam_inner_radius_m
+        return BeamProfile(self.beam_profile, outer, inner, self.lobe_waist_m, self.beam_lobes)
 
     @property
     def outer_beam_radius_m(self) -> float:
         """Flat-top or annulus outer radius, Gaussian waist or ring radius (default: ``a``)."""
         return self.aperture_radius_m if self.beam_radius_m is None else self.beam_radius_m
-
-    @property
-    def inner_beam_radius_m(self) -> float:
-        return 0.5 * self.outer_beam_radius_m if self.beam_inner_radius_m is None else self.beam_inner_radius_m
 
     @property
     def lobe_waist_m(self) -> float:
@@ -213,6 +195,6 @@ class RigidSailConfig:
         return dataclasses.replace(self, **changes)
 
 
-def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
+def check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
     if not (isinstance(value, str) and value in choices):
         raise ValueError(f"{name} must be one of {choices}, got {value!r}")

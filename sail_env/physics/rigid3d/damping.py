@@ -25,13 +25,11 @@ spin's (tangential, symmetric) element velocities.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.rigid3d.body import RigidSail
-from sail_env.physics.rigid3d.flight import Flight
 from sail_env.physics.rigid3d.linearise import RATES, Linearisation, linearise
 
 #: Imaginary parts below this [rad/s] are round-off of the neutral tilt's double zero, not modes.
@@ -102,21 +100,3 @@ def mode_damping_rates(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     frequencies = np.array([eig.imag[groups == g].mean() for g in range(int(keep.sum()))])
     decay = np.array([-eig.real[groups == g].mean() for g in range(int(keep.sum()))])
     return frequencies, decay
-
-
-def flight_e_folds(sail: RigidSail, flight: Flight, segment_s: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
-    """``(frequencies at the start, e-folds)`` of each oscillating mode's amplitude over the flight:
-    ``∫ decay rate dt`` with the damping and stiffness at each segment's mid-time (the Doppler
-    factor and spot widening of ``flight``)."""
-    edges = np.linspace(0.0, flight.duration_s, max(1, math.ceil(flight.duration_s / segment_s)) + 1)
-    total, first = None, None
-    for lo, hi in zip(edges[:-1], edges[1:]):
-        mid = 0.5 * (lo + hi)
-        lin = damped_linearisation(sail, power_factor=float(flight.power_factor(mid)),
-                                   beam_scale=float(flight.beam_scale(mid)), velocity_terms=True)
-        frequencies, decay = mode_damping_rates(lin.A)
-        first = frequencies if first is None else first
-        if frequencies.size != first.size:
-            raise ValueError(f"the oscillating modes change along the flight (at {mid:.0f} s): e-folds undefined")
-        total = decay * (hi - lo) if total is None else total + decay * (hi - lo)
-    return first, total

@@ -38,6 +38,7 @@ from sail_env.physics.constants import SPEED_OF_LIGHT
 from sail_env.physics.relativity import diffraction_scale
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
+from sail_env.physics.rigid3d.scales import scale_grid
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
@@ -66,8 +67,6 @@ class PushLaw:
     """
 
     def __init__(self, sail: RigidSail, top: float) -> None:
-        from sail_env.physics.rigid3d.scales import scale_grid  # scales → damping → this module
-
         _, kinks = scale_grid(sail.config, top)
         self.edges = sorted({0.0, *kinks, math.log(max(top, 1.0 + 1e-9))})
         near = sail.centred_push(1.0, 1.0)

@@ -31,7 +31,6 @@ import math
 import numpy as np
 
 from sail_env.physics.constants import SPEED_OF_LIGHT
-from sail_env.physics.rigid3d.beams import BeamProfile
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.geometry import SailGeometry
 
@@ -50,7 +49,7 @@ class RadiationModel:
     def __init__(self, config: RigidSailConfig) -> None:
         self.config = config
         self.geometry = SailGeometry.from_config(config)
-        self.beam = BeamProfile.from_config(config)
+        self.beam = config.beam()
         x, w = np.polynomial.legendre.leggauss(config.radial_nodes)
         self._radial_nodes = 0.5 * (x + 1.0)
         self._radial_weights = 0.5 * w

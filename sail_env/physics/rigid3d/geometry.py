@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from sail_env.physics.config import moment_of_inertia
+from sail_env.physics.seed import moment_of_inertia
 from sail_env.physics.rigid3d.config import RigidSailConfig
 
 #: Gauss–Legendre nodes of the fixed radial quadrature of the sail's mass distribution.
@@ -130,7 +130,7 @@ def inertia_tensor(config: RigidSailConfig) -> np.ndarray:
     struts a uniform rod on the axis from the payload to the vertex. Diagonal ``(I_t, I_t, I_a)``.
 
     The transverse moment is the seed's eq 10 for point masses at the vertex and the payload
-    (:func:`sail_env.physics.config.moment_of_inertia`) plus what the sail's spread changes.
+    (:func:`sail_env.physics.seed.moment_of_inertia`) plus what the sail's spread changes.
     """
     geometry = SailGeometry.from_config(config)
     rho2, z2 = geometry.mass_moments

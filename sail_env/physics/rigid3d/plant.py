@@ -33,7 +33,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sail_env.physics.config import SEED, boolean, check_timing, real_number
+from sail_env.physics import seed
+from sail_env.physics.checks import boolean, check_timing, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
 from sail_env.physics.noise import moment_growth_rate
@@ -42,7 +43,8 @@ from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights, draw_flights
-from sail_env.physics.rigid3d.limits import MAX_POWER_CONTROL, check_flight, check_spin, farthest_distance_m
+from sail_env.physics.rigid3d.limits import (MAX_POWER_CONTROL, check_flight, check_spin, farthest_distance_m,
+                                             fastest_flight)
 from sail_env.physics.rigid3d.damping import damped_linearisation
 from sail_env.physics.rigid3d.linearise import RATES, STATE_NAMES, Linearisation
 from sail_env.physics.rigid3d.scales import ScaleTable, scale_table
@@ -61,7 +63,7 @@ X, Y, VX, VY, THETA_X, THETA_Y, OMEGA_X, OMEGA_Y = range(8)
 
 
 @dataclasses.dataclass(frozen=True)
-class RigidTaskConfig:
+class RigidTaskConfig(seed.Timing):
     """The 3D task's physics: the sail and beam, its spin, the power command and the timing.
 
     Attributes:
@@ -82,7 +84,7 @@ class RigidTaskConfig:
             :mod:`~sail_env.physics.rigid3d.damping`; docs/physics.md §13): the only passive
             damping a mirror has, of order 1e-3 e-folds over a flight.
         beam_cutoff_s, control_step_s, control_window_s, control_start_s: As in
-            :class:`~sail_env.physics.config.SailConfig` (the seed's defaults).
+            the planar sail's (the seed's design point, :mod:`~sail_env.physics.seed`).
     """
 
     sail: RigidSailConfig = RigidSailConfig()
@@ -92,18 +94,14 @@ class RigidTaskConfig:
     diffraction_length_m: float = math.inf
     payload_offset_m: float = 0.0
     velocity_terms: bool = False
-    beam_cutoff_s: float = SEED.beam_cutoff_s
-    control_step_s: float = SEED.control_step_s
-    control_window_s: float = SEED.control_window_s
-    control_start_s: float = SEED.control_start_s
 
     def __post_init__(self) -> None:
         if not isinstance(self.sail, RigidSailConfig):
             raise ValueError(f"sail must be a RigidSailConfig, got {self.sail!r}")
         for name in ("relativistic", "velocity_terms"):
             object.__setattr__(self, name, boolean(getattr(self, name), name))
-        for field in dataclasses.fields(RigidTaskConfig)[1:]:  # a subclass checks its own fields
-            if field.name in ("relativistic", "velocity_terms"):
+        for field in dataclasses.fields(RigidTaskConfig):  # a subclass checks its own fields
+            if field.name in ("sail", "relativistic", "velocity_terms"):
                 continue
             value = real_number(getattr(self, field.name), field.name)
             if math.isnan(value) or (math.isinf(value) and field.name != "diffraction_length_m"):
@@ -128,10 +126,6 @@ class RigidTaskConfig:
         """Flight time of the control window's middle: where the window's model is taken."""
         return self.control_start_s + 0.5 * self.control_window_s
 
-    @property
-    def control_steps(self) -> int:
-        """Number of control steps in the window (rounded to whole steps)."""
-        return max(1, round(self.control_window_s / self.control_step_s))
 
 
 @dataclasses.dataclass
@@ -181,6 +175,8 @@ class RigidPlant(LinearPlant):
     #: A constant-term column even without a payload offset (a subclass's drawn constant drive).
     always_biased = False
     velocity_rows = (VX, VY)
+    #: The tilt rates (with the lateral speeds, the rows a dust grain kicks).
+    tilt_rate_rows = (OMEGA_X, OMEGA_Y)
     #: Components limited together at the start, as divergence limits them: ``√(x² + y²)`` and so on.
     radial_pairs = ((X, Y), (VX, VY), (THETA_X, THETA_Y), (OMEGA_X, OMEGA_Y))
     #: The CoM has left the aperture (``√(x² + y²) > a``) or the tilt the small-angle regime or the
@@ -322,9 +318,7 @@ class RigidPlant(LinearPlant):
             # (1 + power_control) / (power factor), far inside the margin between a piece's e^20
             # and overflow.
             growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise, (a - self.kinematics, b)))
-        c = self.config.sail
-        limits = np.tile([c.aperture_radius_m, min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)],
-                         (len(a), 1))
+        limits = np.tile([self.aperture_radius_m, self.tilt_limit_rad], (len(a), 1))
         acceleration = self.nominal_acceleration * self.draw_rows(factors)[1]
         return RigidParams(a, b, step, table, acceleration, limits, growth, shared, rows, factors)
 
@@ -344,9 +338,15 @@ class RigidPlant(LinearPlant):
         return self.nominal_b[:, -1] if self.biased else np.zeros(self.n_states)
 
     def start_limits(self) -> np.ndarray:
+        a, tilt = self.aperture_radius_m, self.tilt_limit_rad
+        return np.repeat([a, a / self.dt, tilt, tilt / self.dt], 2)
+
+    @property
+    def tilt_limit_rad(self) -> float:
+        """Largest tilt [rad] on the beam: the aperture seen from the CoM, at most the small-angle
+        regime's :data:`~sail_env.physics.linear_plant.MAX_TILT_RAD`."""
         c = self.config.sail
-        tilt = min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)
-        return np.repeat([c.aperture_radius_m, c.aperture_radius_m / self.dt, tilt, tilt / self.dt], 2)
+        return min(c.aperture_radius_m / c.com_distance_m, MAX_TILT_RAD)
 
     def power_factor(self, ratio: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The Doppler power factor at flight time ``t`` of sails with ``ratio`` times the nominal
@@ -372,6 +372,12 @@ class RigidPlant(LinearPlant):
     def farthest_distance_m(self) -> float:
         """The farthest any draw can be from the array at a cut-off (a Newtonian bound)."""
         return farthest_distance_m(self.config, self.linearisation, self.parameter_spread)
+
+    @property
+    def fastest_speed_m_s(self) -> float:
+        """The fastest any draw can fly at a cut-off (the same Newtonian bound)."""
+        acceleration, horizon = fastest_flight(self.config, self.linearisation, self.parameter_spread)
+        return acceleration * horizon
 
     @property
     def aperture_radius_m(self) -> float:

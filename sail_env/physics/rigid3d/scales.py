@@ -55,9 +55,7 @@ def scale_grid(config: RigidSailConfig, top: float) -> tuple[np.ndarray, list[fl
         return np.zeros(1), []
     end = math.log(top)
     edges = {0.0, end}
-    if config.beam_profile in ("flat-top", "annulus"):
-        radii = [config.outer_beam_radius_m] + ([config.inner_beam_radius_m] if config.beam_profile == "annulus" else [])
-        edges |= {x for r in radii if 0 < (x := math.log(config.aperture_radius_m / r)) < end}
+    edges |= {x for r in config.beam().edges if 0 < (x := math.log(config.aperture_radius_m / r)) < end}
     edges = sorted(edges)
     points = [np.zeros(1)]
     step = math.log(SCALE_STEP)

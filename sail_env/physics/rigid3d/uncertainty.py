@@ -46,7 +46,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sail_env.physics.config import boolean, real_number
+from sail_env.physics.checks import boolean, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.memo import built_once
 from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidTaskConfig, RigidPlant

@@ -35,8 +35,11 @@ import enum
 import functools
 
 import numpy as np
-from sail_env.physics.config import SailConfig
+import scipy.linalg
+
 from sail_env.physics.linear import LinearModel
+from sail_env.physics.noise import WhiteNoise, mean_and_covariance, moment_generator, second_moment
+from sail_env.physics.planar.config import SailConfig
 
 #: Centroid factor of the lit lens between a flat-top beam and the aperture (seed eq 14).
 OVERLAP_CENTROID_FACTOR = 0.5
@@ -44,6 +47,7 @@ OVERLAP_CENTROID_FACTOR = 0.5
 STATE_NAMES = ("x", "vx", "theta", "omega")
 INPUT_NAMES = ("beam_offset", "beam_tilt")
 X, VX, THETA, OMEGA = range(4)
+BEAM_OFFSET, BEAM_TILT = range(2)
 
 
 class StabilityKind(str, enum.Enum):
@@ -187,3 +191,24 @@ def rates(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     growth = np.maximum(np.abs(roots.real).max(axis=-1), 0.0)
     oscillating = (roots.imag > 0) & ~flutter[..., None]
     return growth, np.where(oscillating, roots.imag, np.nan)
+
+
+def propagate_moments(model: PlanarModel, mean: np.ndarray, cov: np.ndarray,
+                      action: np.ndarray, duration: float,
+                      noise: WhiteNoise) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance of the state after ``duration`` s with ``action`` held (the beam's
+    jitter on its landing offset, :data:`BEAM_OFFSET`; :mod:`sail_env.physics.noise`)."""
+    if not duration >= 0:
+        raise ValueError(f"duration must be >= 0, got {duration}")
+    action = np.asarray(action, dtype=float)
+    if noise.beam_jitter_psd_m2s == 0 and noise.push_psd_s == 0:
+        # Noise-free: the exact propagator, free of the cancellation in M − mean meanᵀ.
+        phi, gamma = model.discretize(duration)
+        return phi @ mean + gamma @ action, phi @ cov @ phi.T
+    gen = moment_generator(model.A, model.B, action, noise, model.push_sensitivity, (BEAM_OFFSET,))
+    return mean_and_covariance(scipy.linalg.expm(gen * duration) @ second_moment(mean, cov))
+
+
+def pointing_error(model: PlanarModel, state: np.ndarray, t: float) -> float:
+    """``|Vx| / Vz`` [rad] for a state at flight time ``t`` (beam cut off then)."""
+    return abs(float(state[VX])) / model.equilibrium_speed(t)

@@ -1,4 +1,4 @@
-"""The planar model (:mod:`sail_env.physics.planar`) as the episode core's batched plant."""
+"""The planar model (:mod:`sail_env.physics.planar.model`) as the episode core's batched plant."""
 
 from __future__ import annotations
 
@@ -6,21 +6,22 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sail_env.physics.config import SailConfig, moment_of_inertia
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import push_expansion, zoh_discretize
 from sail_env.physics.linear_plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.noise import moment_growth_rate
-from sail_env.physics.planar import (INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel, push_sensitivity,
-                                     rates, system_matrices)
+from sail_env.physics.planar.config import SailConfig
+from sail_env.physics.planar.model import (BEAM_OFFSET, INPUT_NAMES, STATE_NAMES, THETA, VX, X, PlanarModel,
+                                           push_sensitivity, rates, system_matrices)
 from sail_env.physics.pointing import envelope_table
+from sail_env.physics.seed import moment_of_inertia
 
 #: The parameters a spread draws, in draw order (one uniform factor each).
 SPREAD_FIELDS = ("sail_mass_kg", "craft_mass_kg", "strut_length_m", "com_distance_m", "curvature_radius_m")
 
 
 class PlanarPlant(LinearPlant):
-    """Batched physics of the planar model (:mod:`sail_env.physics.planar`) for the episode core.
+    """Batched physics of the planar model (:mod:`sail_env.physics.planar.model`) for the episode core.
 
     Args:
         config: The nominal configuration.
@@ -42,7 +43,7 @@ class PlanarPlant(LinearPlant):
     input_units = ("m", "rad")
     input_ranges: dict[str, float] = {}
     spread_fields = SPREAD_FIELDS
-    jitter_inputs = (0,)
+    jitter_inputs = (BEAM_OFFSET,)
     velocity_rows = (VX,)
     #: The sail has left the beam (``|X|`` beyond the aperture) or ``|θ|`` beyond ``min(a/Lc, MAX_TILT_RAD)``.
     divergence_groups = ((X,), (THETA,))
@@ -89,12 +90,14 @@ class PlanarPlant(LinearPlant):
             phi, gamma = self.nominal.discretize(self.dt) if shared else zoh_discretize(a, b, self.dt)
             coeffs = np.concatenate([phi, gamma], axis=-1)[:, None]
         step = coeffs.reshape(len(factors), -1, 6)
-        growth, _ = rates(a)
+        modes = rates(a)
+        growth = modes[0]
         if self.noisy:
-            growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise))
+            growth = np.maximum(growth, moment_growth_rate(a, b, self.white_noise, push_sensitivity(a, b)))
         # |Lc θ| ≤ a and |θ| ≤ MAX_TILT_RAD in one bound on |θ|.
         limits = np.stack([np.full(len(lc), c.aperture_radius_m), np.minimum(c.aperture_radius_m / lc, MAX_TILT_RAD)], 1)
-        return PlantParams(a, b, step, envelope_table(a, b), c.push_force_n / (sail + craft), limits, growth, shared)
+        table = envelope_table(a, b, rows=self.velocity_rows, mode_rates=modes)
+        return PlantParams(a, b, step, table, c.push_force_n / (sail + craft), limits, growth, shared)
 
     @property
     def acceleration_m_s2(self) -> float:
@@ -113,6 +116,10 @@ class PlanarPlant(LinearPlant):
     def pointing(self, p: PlantParams, x: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Flight direction ``|Vx| / Vz`` [rad] if the beam is cut at ``t``."""
         return np.abs(x[:, VX]) / self.speed(p, t)
+
+    def _push_terms(self, p: PlantParams) -> tuple[np.ndarray, np.ndarray]:
+        """Every force term scales with the push (:func:`~sail_env.physics.planar.model.push_sensitivity`)."""
+        return push_sensitivity(p.a, p.b)
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""

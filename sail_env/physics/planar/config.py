@@ -1,4 +1,4 @@
-"""Sail configuration: one validated dataclass in SI units, and presets.
+"""The planar sail's configuration: one validated dataclass in SI units, and presets.
 
 The geometry follows the seed paper (Team 258, MCM Problem A): a spherical-cap
 sail of aperture radius ``a`` and radius of curvature ``R`` (centre of curvature
@@ -11,66 +11,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 
-import numpy as np
-
+from sail_env.physics import seed
+from sail_env.physics.checks import check_below_light_speed, check_timing, real_number
 from sail_env.physics.constants import SPEED_OF_LIGHT
-
-#: Most control steps in a window. The episode core draws every normal an episode's window
-#: can need at reset (a few per step), so the window's length is memory per environment;
-#: 10⁵ steps (500 s at 5 ms) keeps that to a few MB and covers any controllable window.
-MAX_CONTROL_STEPS = 100_000
-
-
-def real_number(value: object, name: str) -> float:
-    """``value`` as a float if it is a real number: an int, a float or a NumPy real scalar such as
-    ``np.float32(1.0)``; a bool, a string or an array raises ``ValueError`` naming ``name``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
-    return float(value)
-
-
-def boolean(value: object, name: str) -> bool:
-    """``value`` as a bool if it is ``True``, ``False`` or a NumPy bool; anything else (``0``, ``1``,
-    strings) raises ``ValueError`` naming ``name``."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be a bool (True or False), got {value!r}")
-    return bool(value)
-
-
-def check_timing(control_start_s: float, control_step_s: float, control_window_s: float,
-                 beam_cutoff_s: float) -> None:
-    """The control window's timing, as every sail's configuration checks it (the step and the
-    cut-off already > 0): it starts at or after launch, holds at least one and at most
-    :data:`MAX_CONTROL_STEPS` steps, and ends by the beam's cut-off. ``ValueError`` names the field."""
-    if control_start_s < 0:
-        raise ValueError(f"control_start_s must be >= 0, got {control_start_s}")
-    if control_window_s < control_step_s:
-        raise ValueError(f"control_window_s must be >= control_step_s ({control_step_s} s), got {control_window_s}")
-    if control_start_s + control_window_s > beam_cutoff_s:
-        raise ValueError(f"control_start_s + control_window_s must be <= beam_cutoff_s ({beam_cutoff_s} s), "
-                         f"got {control_start_s + control_window_s}")
-    steps = control_window_s / control_step_s  # may overflow to inf: compared before rounding
-    if not steps <= MAX_CONTROL_STEPS:
-        raise ValueError(f"control_window_s / control_step_s must be <= {MAX_CONTROL_STEPS} steps, got "
-                         f"{control_window_s} / {control_step_s} = {steps:.6g}")
-
-
-def check_below_light_speed(acceleration_m_s2: float, t: float, what: str,
-                            remedy: str = "push_force_n or beam_cutoff_s") -> None:
-    """The planar model is Newtonian (``Vz = a t``): refuse a push that would pass the speed of light
-    by ``t`` (naming ``what`` sets the limit and the settings to lower, ``remedy``)."""
-    speed = acceleration_m_s2 * t
-    if not speed < SPEED_OF_LIGHT:
-        raise ValueError(
-            f"{what}: the Newtonian axial speed a t = {acceleration_m_s2:.4g} m/s² x {t:.4g} s = {speed:.4g} m/s "
-            f"at cut-off must stay below the speed of light ({SPEED_OF_LIGHT:.6g} m/s); lower {remedy}")
 
 
 @dataclasses.dataclass(frozen=True)
-class SailConfig:
-    """Planar light-sail parameters, SI units throughout.
+class SailConfig(seed.Timing, seed.SailBody):
+    """Planar light-sail parameters, SI units throughout; the defaults are the seed's design point
+    (:mod:`sail_env.physics.seed`, whose fields every sail model shares).
 
     Attributes:
         aperture_radius_m: Sail aperture radius ``a``; the flat-top beam has the same radius.
@@ -87,17 +37,7 @@ class SailConfig:
             from launch until then).
     """
 
-    aperture_radius_m: float = 2.0
-    curvature_radius_m: float = 10.0
-    com_distance_m: float = 10.0
-    strut_length_m: float = 20.0
-    sail_mass_kg: float = 0.5e-3
-    craft_mass_kg: float = 0.5e-3
-    push_force_n: float = 100.0
-    beam_cutoff_s: float = 600.0
-    control_step_s: float = 0.005
-    control_window_s: float = 1.0
-    control_start_s: float = 0.0
+    push_force_n: float = seed.PUSH_FORCE_N
 
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
@@ -134,7 +74,7 @@ class SailConfig:
     @property
     def moment_of_inertia_kg_m2(self) -> float:
         """Seed eq 10: ``I = m_sail Lc^2 + m_craft (L - Lc)^2`` (point masses on a massless strut)."""
-        return moment_of_inertia(self.sail_mass_kg, self.craft_mass_kg, self.com_distance_m, self.strut_length_m)
+        return seed.moment_of_inertia(self.sail_mass_kg, self.craft_mass_kg, self.com_distance_m, self.strut_length_m)
 
     @property
     def curvature_per_m(self) -> float:
@@ -145,22 +85,12 @@ class SailConfig:
     def axial_acceleration_m_s2(self) -> float:
         return self.push_force_n / self.total_mass_kg
 
-    @property
-    def control_steps(self) -> int:
-        """Number of control steps in the window (the window is rounded to whole steps)."""
-        return max(1, round(self.control_window_s / self.control_step_s))
-
     def replace(self, **changes: float) -> "SailConfig":
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, float]:
         return dataclasses.asdict(self)
-
-
-def moment_of_inertia(sail_mass, craft_mass, com_distance, strut_length):
-    """Seed eq 10, ``m_sail Lc² + m_craft (L − Lc)²`` (scalars or arrays)."""
-    return sail_mass * com_distance**2 + craft_mass * (strut_length - com_distance) ** 2
 
 
 def push_force_from_laser(power_w: float, reflectance: float = 1.0) -> float:
