@@ -21,7 +21,7 @@ jax.config.update("jax_enable_x64", True)
 
 from sail_env.envs.planar import planar_spec  # noqa: E402  (after float64 is on)
 from sail_env.jax.planar import EnvParams, EnvState, PlanarSailEnv  # noqa: E402
-from sail_env.tasks import PLANAR_TASKS  # noqa: E402
+from sail_env.tasks import JAX_TASKS, PLANAR_TASKS  # noqa: E402
 
 __all__ = ["EnvParams", "EnvState", "PlanarSailEnv", "make"]
 
@@ -30,9 +30,7 @@ def make(env_id: str, **keywords: Any) -> tuple[PlanarSailEnv, EnvParams]:
     """The JAX env of a task id and its default params; ``keywords`` as ``gym.make``'s (a bad one
     is the same ``ValueError``). Today the planar tasks without noise, delay or spread."""
     if env_id not in PLANAR_TASKS:
-        raise ValueError(f"the JAX backend has no task {env_id!r}; it has {sorted(_SUPPORTED)}")
+        raise ValueError(f"the JAX backend has no task {env_id!r}; it has {list(JAX_TASKS)}")
     env = PlanarSailEnv(planar_spec(**{**PLANAR_TASKS[env_id], **keywords}), env_id)
     return env, env.default_params
 
-
-_SUPPORTED = ("LightSail-v0", "LightSailDeepDish-v0")

@@ -42,6 +42,7 @@ class EnvState(environment.EnvState):
     envelope: jax.Array  # the last step's envelope: largest |V⊥|/Vz with the input held [rad]
     terminated: jax.Array  # the last step ended the episode
     diverged: jax.Array  # the sail left the beam (in the window or the coast)
+    pointing: jax.Array  # the flight direction at cut-off [rad]: NaN before the end, inf after a divergence
 
 
 @struct.dataclass
@@ -144,7 +145,8 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         x = ordered_dot(params.launch_phi, launch)
         zero = jnp.zeros((), dtype=x.dtype)
         state = EnvState(time=jnp.zeros((), jnp.int32), x=x, last_command=jnp.zeros(self.n_inputs, x.dtype),
-                         reward=zero, envelope=zero, terminated=jnp.array(False), diverged=jnp.array(False))
+                         reward=zero, envelope=zero, terminated=jnp.array(False), diverged=jnp.array(False),
+                         pointing=jnp.full((), jnp.nan, x.dtype))
         return self.observe_state(state, params), state
 
     # ------------------------------------------------------------------ step
@@ -164,10 +166,14 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         reward = jnp.where(diverged, DIVERGENCE_PENALTY, -log_ratio(envelope) / window)
         state = state.replace(time=time, x=x, last_command=command, reward=reward, envelope=envelope,
                               terminated=terminated, diverged=diverged)
-        state, pointing = self._score(state, params)
-        info = {"is_success": pointing <= POINTING_TOLERANCE_RAD, "terminal_pointing_rad": pointing,
-                "diverged": state.diverged, "envelope_rad": envelope}
-        return self.observe_state(state, params), state, state.reward, terminated, info
+        state = self._score(state, params)
+        return self.observe_state(state, params), state, state.reward, terminated, self.scores(state)
+
+    @staticmethod
+    def scores(state: EnvState) -> dict[str, jax.Array]:
+        """What the Gym envs report at an episode's end (meaningful once ``terminated``)."""
+        return {"is_success": state.pointing <= POINTING_TOLERANCE_RAD, "terminal_pointing_rad": state.pointing,
+                "diverged": state.diverged, "envelope_rad": state.envelope}
 
     def is_truncated(self, state: EnvState, params: EnvParams) -> jax.Array:
         """Never: the window's end terminates the episode (it is scored at cut-off)."""
@@ -193,7 +199,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
             return jnp.max(jnp.abs(speeds))
         return jnp.sqrt(jnp.max(squares))
 
-    def _score(self, state: EnvState, params: EnvParams) -> tuple[EnvState, jax.Array]:
+    def _score(self, state: EnvState, params: EnvParams) -> EnvState:
         """Coast a finished window to cut-off with the last command held and score it (the
         computation runs every step and is selected, as ``vmap`` would run both branches anyway)."""
         def piece(j: jax.Array, carry: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
@@ -212,7 +218,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         diverged = state.diverged | (scored & coast_lost)
         reward = jnp.where(diverged, DIVERGENCE_PENALTY, reward)
         pointing = jnp.where(diverged, jnp.inf, jnp.where(scored, pointing, jnp.nan))
-        return state.replace(reward=reward, diverged=diverged), pointing
+        return state.replace(reward=reward, diverged=diverged, pointing=pointing)
 
     # ------------------------------------------------------------------ observation
     def observe_state(self, state: EnvState, params: EnvParams) -> jax.Array:

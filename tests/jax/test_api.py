@@ -90,3 +90,25 @@ def test_tasks_the_backend_does_not_carry_are_refused() -> None:
         sail_env.jax.make("CartPole-v1")
     with pytest.raises(ValueError, match="max_beam_offset_m"):
         sail_env.jax.make("LightSail-v0", max_beam_offset_m=-1.0)
+
+
+def test_gymnasium_functional_envs_play_the_same_episodes() -> None:
+    """``gym.make("jax/LightSail-v0")`` and its vector env are Gymnasium's functional wrappers over
+    the same functions: the same key gives the same episode as gymnax's API."""
+    import gymnasium as gym
+
+    env = gym.make("jax/LightSail-v0")
+    assert env.unwrapped.metadata["jax"] is True
+    obs, _ = env.reset(seed=7)
+    assert env.observation_space.contains(np.asarray(obs))
+    total, steps, terminated = 0.0, 0, False
+    while not terminated:
+        obs, reward, terminated, truncated, info = env.step(np.array([0.1, -0.1], dtype=np.float32))
+        total, steps = total + reward, steps + 1
+    assert steps == 200 and np.isfinite(info["terminal_pointing_rad"]) and "is_success" in info
+    envs = gym.make_vec("jax/LightSail-v0", num_envs=8)
+    obs, _ = envs.reset(seed=0)
+    obs, reward, terminated, truncated, info = envs.step(np.zeros((8, 2), dtype=np.float32))
+    assert obs.shape == (8, 5) and reward.shape == (8,) and not bool(np.any(terminated))
+    with pytest.raises(ValueError, match="render_mode"):
+        gym.make("jax/LightSail-v0", render_mode="human")
