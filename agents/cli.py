@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import tempfile
+import warnings
 from pathlib import Path
+from types import TracebackType
 
 
 class UsageError(ValueError):
@@ -66,6 +69,50 @@ def fail(message: object) -> int:
     """Print ``error: message`` as one line on stderr; the exit code of a refused input."""
     print(f"error: {' '.join(str(message).split())}", file=sys.stderr)
     return 2
+
+
+#: Terminal colour codes, which gymnasium puts around its warnings' text.
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+
+
+class OneLineWarnings:
+    """Python warnings (gymnasium's about an out-of-date env id, a library's) as one ``warning: …``
+    line each on stderr, each text once, instead of Python's two lines (file, line, then code).
+
+    Held until :meth:`release`: a script releases them once its checks passed, so a refusal before
+    then is its one error line alone. A context manager: on exit, warnings show as before.
+    """
+
+    def __init__(self) -> None:
+        self._held: list[str] | None = []
+        self._seen: set[str] = set()
+        self._saved = warnings.catch_warnings()
+
+    def __enter__(self) -> OneLineWarnings:
+        self._saved.__enter__()
+        warnings.showwarning = self._show
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 traceback: TracebackType | None) -> None:
+        self._saved.__exit__(kind, error, traceback)
+
+    def _show(self, message: Warning | str, category: type[Warning], filename: str, lineno: int,
+              file: object = None, line: str | None = None) -> None:
+        text = " ".join(_ANSI.sub("", str(message)).removeprefix("WARN: ").split())
+        if text in self._seen:
+            return
+        self._seen.add(text)
+        if self._held is None:
+            print(f"warning: {text}", file=sys.stderr, flush=True)
+        else:
+            self._held.append(text)
+
+    def release(self) -> None:
+        """Print the warnings held so far; later ones print as they come."""
+        for text in self._held or []:
+            print(f"warning: {text}", file=sys.stderr, flush=True)
+        self._held = None
 
 
 def check_writable_dir(path: Path, flag: str) -> None:

@@ -12,20 +12,30 @@ or the path of a model saved by ``train.py`` (loaded with the VecNormalize stati
 Episode ``i`` is ``env.reset(seed=seed + i)`` for every agent, so all agents face the
 same start states, cut-off times and noise draws: the comparison is paired.
 
-A bad argument, an unusable model or an unwritable ``--out`` is one line on stderr and
-exit code 2, before any episode runs and with nothing written. Model ``.zip`` and
-statistics ``.pkl`` files are unpickled, which runs code: load only files you trust.
+A bad argument, an unusable model, an unwritable ``--out`` or one that holds a report already
+(``--overwrite`` replaces it) is one line on stderr and exit code 2, before any episode runs and
+with nothing written. The report is written whole or not at all: made in a hidden folder beside
+``--out`` and renamed into place, so Ctrl-C, a full disk or another evaluation into the same
+``--out`` leaves the earlier report as it was, never a mix. Model ``.zip`` and statistics ``.pkl``
+files are unpickled, which runs code: load only files you trust.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
+import errno
 import json
 import math
+import os
+import secrets
+import shutil
+import signal
 import sys
+import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +53,8 @@ from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
 from agents.adaptive import MultipleModelLQGAgent, OffsetFreeMultipleModelLQGAgent  # noqa: E402
 from agents.oracle import OracleLQGAgent, OracleLQRAgent, attach  # noqa: E402
 from agents.residual import RESIDUAL_BASES, ResidualAgent  # noqa: E402
-from agents.cli import HelpFormatter, Parser, UsageError, check_writable_dir, describe, fail  # noqa: E402
+from agents.cli import (HelpFormatter, OneLineWarnings, Parser, UsageError, check_writable_dir, describe,  # noqa: E402
+                        fail)
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
 from sail_env.core.spec import EpisodeSpec  # noqa: E402
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
@@ -58,12 +69,15 @@ BASELINES: dict[str, Callable[[EpisodeSpec], Agent]] = {"passive": PassiveAgent,
                                                         "lqg-mm-offset": OffsetFreeMultipleModelLQGAgent}
 #: Apart from the seeds train.py trains and selects models on.
 DEFAULT_SEED = 100_000
-#: The tilt on the x axis (the planar model's θ, the 3D model's θy) and the beam inputs acting on it:
-#: what the trajectory plot shows.
-X_AXIS_TILTS = ("theta", "theta_y")
-X_AXIS_INPUTS = ("beam_offset", "beam_tilt", "beam_offset_x", "beam_tilt_x")
+#: What the trajectory plot shows, per lateral axis: the offset, the tilt that moves it and the beam
+#: inputs on it (docs/physics.md §9: the planar (X, θ) is the 3D model's (x, θy); θx moves y).
+TRAJECTORY_AXES = {False: (("x", "theta", "beam_offset", "beam_tilt"),),
+                   True: (("x", "theta_y", "beam_offset_x", "beam_tilt_x"),
+                          ("y", "theta_x", "beam_offset_y", "beam_tilt_y"))}
 #: Episodes stepped as one batch: the progress bar moves once a batch; memory stays bounded.
 BATCH_EPISODES = 50
+#: Without a terminal (a log), a line at most this often while an agent plays [s]: not minutes of silence.
+LOG_EVERY_S = 30.0
 
 
 def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Agent:
@@ -74,7 +88,7 @@ def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Ag
     if spec in BASELINES:
         return BASELINES[spec](env.unwrapped.episode_spec)
     if not Path(spec).is_file():
-        raise ModelLoadError(f"{spec}: neither a baseline ({', '.join(BASELINES)}) nor a model file")
+        raise ModelLoadError(not_an_agent(spec))
     agent = SB3Agent.load(spec, env.observation_space.shape, raw_observations_ok)
     if agent.trained_env is not None and agent.trained_env != env.spec.id:
         print(f"warning: {spec} was trained on {agent.trained_env} (its run.json), "
@@ -85,18 +99,35 @@ def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Ag
     return agent
 
 
+def not_an_agent(spec: str) -> str:
+    """Why ``spec`` is no agent and, when it names a path in a folder, what that folder holds: a
+    short run saves no ``best_model.zip``, and the README's next command names one."""
+    message = f"{spec}: neither a baseline ({', '.join(BASELINES)}) nor a model file"
+    path = Path(spec)
+    folder = path if path.is_dir() else path.parent
+    if not (os.sep in spec or path.suffix == ".zip") or not folder.is_dir():
+        return message
+    models = sorted(p.name for p in folder.glob("*.zip"))
+    checkpoints = list((folder / "checkpoints").glob("*.zip"))
+    if models:
+        return f"{message}; {folder} holds {', '.join(models)}: pass one of those"
+    if checkpoints:
+        return f"{message}; {folder} holds no model, only {len(checkpoints)} checkpoints in {folder / 'checkpoints'}"
+    return f"{message}; {folder} holds no model (.zip)"
+
+
 def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False) -> dict[str, Any]:
-    """One seeded episode: start state, outcome, return, and the trajectory if asked for
-    (rows: t [s], X [m], θ [rad], beam offset d [m], beam tilt ψ [rad]; in 3D the x axis)."""
+    """One seeded episode: start state, outcome, return, and the trajectory if asked for (rows: t [s],
+    then per lateral axis of :data:`TRAJECTORY_AXES` its offset [m], tilt [rad], beam offset [m] and
+    beam tilt [rad]: planar X, θ, d, ψ; 3D those of x, then of y)."""
     plant = env.unwrapped.episode_spec.plant
     action_scale = env.unwrapped.episode_spec.action_scale
-    tilt = next(name for name in X_AXIS_TILTS if name in plant.state_names)
-    inputs = [i for i, name in enumerate(plant.input_names) if name in X_AXIS_INPUTS]
+    columns = [name for axis in TRAJECTORY_AXES["theta_x" in plant.state_names] for name in axis]
     attach(agent, env)
     obs, info = env.reset(seed=seed)
     agent.reset()
     start = info["state"]
-    steps: list[tuple[float, float, float, float, float]] = []
+    steps: list[list[float]] = []
     total, done = 0.0, False
     while not done:
         action = np.asarray(agent.act(obs), dtype=np.float32)
@@ -104,8 +135,8 @@ def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False)
         total += reward
         done = terminated or truncated
         if trajectory:
-            steps.append((info["t"], info["state"]["x"], info["state"][tilt],
-                          *(np.clip(action, -1, 1) * action_scale)[inputs]))
+            values = {**info["state"], **dict(zip(plant.input_names, np.clip(action, -1, 1) * action_scale))}
+            steps.append([info["t"], *(values[name] for name in columns)])
     episode = {"seed": seed, **{f"{k}0": v for k, v in start.items()}, "cutoff_s": info["cutoff_s"],
                "terminal_pointing_rad": info["terminal_pointing_rad"],
                "success": bool(info["is_success"]), "diverged": bool(info["diverged"]), "return": total}
@@ -267,29 +298,33 @@ def marker_steps(steps: int, curve: int) -> list[int]:
     return sorted(rng.choice(steps, size=min(TRAJECTORY_MARKERS, steps), replace=False).tolist())
 
 
-#: The trajectory plot's panels: the planar model's, and the 3D model's x axis (its offset x, the tilt
-#: θy that moves it, the beam inputs on x).
-TRAJECTORY_LABELS = {False: ("X [mm]", "θ [mrad]", "beam offset d [mm]", "beam tilt ψ [mrad]"),
-                     True: ("x [mm]", "θy [mrad]", "beam offset on x [mm]", "beam tilt on x [mrad]")}
+#: The trajectory plot's panels, a column per lateral axis of :data:`TRAJECTORY_AXES`, and the
+#: columns' titles (none for the planar model's one).
+TRAJECTORY_LABELS = {False: (("X [mm]", "θ [mrad]", "beam offset d [mm]", "beam tilt ψ [mrad]"),),
+                     True: (("x [mm]", "θy [mrad]", "beam offset on x [mm]", "beam tilt on x [mrad]"),
+                            ("y [mm]", "θx [mrad]", "beam offset on y [mm]", "beam tilt on y [mrad]"))}
+TRAJECTORY_TITLES = {False: ("",), True: ("the 3D sail's x axis", "its y axis")}
 
 
 def plot_trajectories(trajectories: dict[str, np.ndarray], path: Path, env_id: str, three_d: bool) -> None:
-    """X, θ and the beam input over the control window, every agent from the same start (in 3D:
-    the x axis).
+    """Offset, tilt and the beam inputs over the control window (rows of :func:`run_episode`), every
+    agent from the same start; in 3D a column for each lateral axis, x then y.
 
     The beam offset and tilt are in the units of X and θ: they act through ``X − d`` and ``θ − ψ``.
     """
-    fig, axes = plt.subplots(4, 1, figsize=(6.4, 7.8), sharex=True)
-    labels = TRAJECTORY_LABELS[three_d]
+    columns = TRAJECTORY_LABELS[three_d]
+    fig, axes = plt.subplots(4, len(columns), figsize=(6.4 * len(columns), 7.8), sharex=True, squeeze=False)
     styles = agent_styles(trajectories)
-    for k, (ax, label) in enumerate(zip(axes, labels)):
-        curves = {name: steps[:, k + 1] * 1e3 for name, steps in trajectories.items()}
-        for i, (name, curve) in enumerate(curves.items()):
-            ax.plot(trajectories[name][:, 0], curve, markevery=marker_steps(len(curve), i), **styles[name])
-        ax.set_ylabel(label, fontsize=8)
-        note_coinciding(ax, curves)
-    axes[-1].set_xlabel("flight time [s]" + (" (the x axis of the 3D sail)" if three_d else ""))
-    save_with_legend_above(fig, axes[0], path, env_id)
+    for c, (labels, title) in enumerate(zip(columns, TRAJECTORY_TITLES[three_d])):
+        axes[0, c].set_title(title, loc="left", fontsize=9)
+        for k, (ax, label) in enumerate(zip(axes[:, c], labels)):
+            curves = {name: steps[:, 1 + 4 * c + k] * 1e3 for name, steps in trajectories.items()}
+            for i, (name, curve) in enumerate(curves.items()):
+                ax.plot(trajectories[name][:, 0], curve, markevery=marker_steps(len(curve), i), **styles[name])
+            ax.set_ylabel(label, fontsize=8)
+            note_coinciding(ax, curves)
+        axes[-1, c].set_xlabel("flight time [s]")
+    save_with_legend_above(fig, axes[0, 0], path, env_id)
 
 
 def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, env_id: str, three_d: bool,
@@ -315,17 +350,107 @@ def plot_success_vs_tilt(results: dict[str, list[dict[str, Any]]], path: Path, e
 
 
 # ---------------------------------------------------------------------- report
+#: The files of a report. A folder that holds only these is a report's (``--overwrite`` replaces it).
+REPORT_FILES = ("report.json", "episodes.csv", "pointing.png", "trajectories.png", "success_vs_tilt.png",
+                "report.md")
+
+
+def check_out(out: Path, overwrite: bool) -> None:
+    """Refuse now, not after the episodes (:class:`UsageError`): an ``out`` that holds a report
+    (unless ``overwrite``) or files of another kind, or where the report cannot be made (it is made
+    in a folder beside ``out``)."""
+    check_writable_dir(out, "--out")
+    if not out.is_dir():  # made when the report is written (check_writable_dir refused a file)
+        return
+    others = sorted(p.name for p in out.iterdir() if p.name not in REPORT_FILES)
+    if others:
+        raise UsageError(f"--out {out} holds files that are not a report's ({', '.join(others[:3])}"
+                         f"{', …' if len(others) > 3 else ''}): choose a new or empty folder")
+    if any(out.iterdir()) and not overwrite:
+        raise UsageError(f"--out {out} holds a report already: --overwrite replaces it, or choose another --out")
+    check_writable_dir(out.resolve().parent, "--out")
+
+
+@contextlib.contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Ctrl-C during the block is raised at its end: a swap of two folders is not cut in two.
+    (Outside the main thread, where no signal is delivered, nothing to do.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum)) or signal.SIG_DFL
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if received and callable(previous):
+        previous(signal.SIGINT, None)
+
+
+def publish(staging: Path, out: Path, overwrite: bool) -> None:
+    """Rename the finished report folder ``staging`` to ``out``: one step, so ``out`` holds one report
+    whole, never a mix. The rename replaces no folder that holds anything: a report another evaluation
+    published meanwhile refuses this one (:class:`UsageError`) unless ``overwrite``, when that report is
+    moved aside first and removed once this one is in place (put back if the rename fails)."""
+    replaced: list[Path] = []
+    with interrupts_deferred():
+        try:
+            while True:
+                try:
+                    staging.rename(out)
+                    break
+                except OSError as err:
+                    if err.errno not in (errno.ENOTEMPTY, errno.EEXIST):
+                        raise
+                    if not overwrite:
+                        raise UsageError(f"--out {out}: another evaluation wrote its report there while this one "
+                                         "ran; it is kept (--overwrite replaces it)") from err
+                aside = out.parent / f".{out.name}.replaced-{os.getpid()}-{secrets.token_hex(4)}"
+                with contextlib.suppress(FileNotFoundError):  # another evaluation moved it aside first
+                    out.rename(aside)
+                    replaced.append(aside)
+        except BaseException:
+            if replaced and not out.exists():
+                replaced.pop().rename(out)
+            raise
+        finally:
+            for folder in replaced:
+                shutil.rmtree(folder, ignore_errors=True)
+
+
 def write_report(out: Path, env_id: str, config: dict[str, Any], results: dict[str, list[dict[str, Any]]],
-                 trajectories: dict[str, np.ndarray]) -> dict[str, Any]:
-    """report.json, episodes.csv, the plots and report.md in ``out``."""
-    out.mkdir(parents=True, exist_ok=True)
+                 trajectories: dict[str, np.ndarray], overwrite: bool = False) -> dict[str, Any]:
+    """The report (:data:`REPORT_FILES`) in ``out``, whole or not at all: written in a hidden folder
+    beside it, then published (:func:`publish`); after an error or Ctrl-C that folder is removed and
+    ``out`` is as it was."""
+    out = out.resolve()  # a link to a folder: the folder; "." has a name
+    made = [folder for folder in out.parents if not folder.exists()]  # innermost first
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = out.parent / f".{out.name}.writing-{os.getpid()}-{secrets.token_hex(4)}"
+    try:
+        staging.mkdir()
+        report = write_report_files(staging, env_id, config, results, trajectories)
+        publish(staging, out, overwrite)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        for folder in made:  # the folders made for it, unless another evaluation uses them now
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
+    return report
+
+
+def write_report_files(out: Path, env_id: str, config: dict[str, Any], results: dict[str, list[dict[str, Any]]],
+                       trajectories: dict[str, np.ndarray]) -> dict[str, Any]:
+    """report.json, episodes.csv, the plots and report.md in the folder ``out``, which exists."""
     summary = {name: summarise(episodes) for name, episodes in results.items()}
     report = {"agents": summary, "env": env_id, "config": config, "versions": versions()}
-    (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False))
+    (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False), encoding="utf-8")
 
     columns = ["agent", "episode", "seed", *start_columns(next(iter(results.values()))[0]), "cutoff_s",
                "terminal_pointing_rad", "success", "diverged", "return"]
-    with (out / "episodes.csv").open("w", newline="") as file:
+    with (out / "episodes.csv").open("w", newline="", encoding="utf-8") as file:
         writer = csv.DictWriter(file, columns, extrasaction="ignore")
         writer.writeheader()
         for name, episodes in results.items():
@@ -336,7 +461,7 @@ def write_report(out: Path, env_id: str, config: dict[str, Any], results: dict[s
     plot_pointing(results, out / "pointing.png", env_id)
     plot_trajectories(trajectories, out / "trajectories.png", env_id, three_d)
     plot_success_vs_tilt(results, out / "success_vs_tilt.png", env_id, three_d)
-    (out / "report.md").write_text(markdown(env_id, config, summary))
+    (out / "report.md").write_text(markdown(env_id, config, summary), encoding="utf-8")
     return report
 
 
@@ -395,33 +520,51 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
 
 def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: bool = True,
               env_kwargs: dict[str, Any] | None = None) -> list[dict[str, Any]]:
-    """:func:`run_batch` in batches of :data:`BATCH_EPISODES` (the same episodes), with a progress bar
-    on a terminal, else one line on stderr when done."""
-    bar = tqdm(total=episodes, desc=agent.name, unit="episode", file=sys.stderr,
-               disable=not (progress and sys.stderr.isatty()))
-    start, results = time.perf_counter(), []
-    with bar:
+    """:func:`run_batch` in batches of :data:`BATCH_EPISODES` (the same episodes). ``progress``: a
+    progress bar on a terminal; otherwise (a log) a line on stderr every :data:`LOG_EVERY_S` and one
+    when done."""
+    on_terminal = progress and sys.stderr.isatty()
+    log = progress and not on_terminal
+    start = last_line = time.perf_counter()
+    results: list[dict[str, Any]] = []
+    with tqdm(total=episodes, desc=agent.name, unit="episode", file=sys.stderr, disable=not on_terminal) as bar:
         for first in range(0, episodes, BATCH_EPISODES):
             batch = min(BATCH_EPISODES, episodes - first)
             results += run_batch(env_id, agent, batch, seed + first, env_kwargs)
             bar.update(batch)
-    if progress and bar.disable:
-        print(f"{agent.name}: {episodes} episodes in {time.perf_counter() - start:.1f} s", file=sys.stderr)
+            now = time.perf_counter()
+            if log and len(results) < episodes and now - last_line >= LOG_EVERY_S:
+                print(f"{agent.name}: {len(results)}/{episodes} episodes, {now - start:.0f} s", file=sys.stderr,
+                      flush=True)
+                last_line = now
+    if log:
+        print(f"{agent.name}: {episodes} episodes in {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
     return results
 
 
 def evaluate(env_id: str, specs: list[str], episodes: int, seed: int, raw_observations_ok: bool = False,
              progress: bool = True) -> tuple[dict, dict]:
-    """Every agent on episodes ``seed … seed + episodes − 1``; per-episode results, and the
-    trajectory of episode ``seed`` from a single env. All agents are loaded before any episode runs."""
+    """Every agent on episodes ``seed … seed + episodes − 1``: :func:`load_agents`, then :func:`play`."""
+    return play(*load_agents(env_id, specs, raw_observations_ok), episodes, seed, progress)
+
+
+def load_agents(env_id: str, specs: list[str], raw_observations_ok: bool = False) -> tuple[gym.Env, list[Agent]]:
+    """A single env of the task and every agent (:func:`make_agent`), all loaded before any episode
+    runs; their names must be distinct (:class:`ValueError`)."""
     env = gym.make(env_id)
     agents = [make_agent(spec, env, raw_observations_ok) for spec in specs]
     names = [agent.name for agent in agents]
     if len(set(names)) != len(names):
         raise ValueError(f"agent names must be distinct, got {names}")
+    return env, agents
+
+
+def play(env: gym.Env, agents: list[Agent], episodes: int, seed: int, progress: bool = True) -> tuple[dict, dict]:
+    """Every agent on episodes ``seed … seed + episodes − 1`` of ``env``'s task; per-episode results,
+    and the trajectory of episode ``seed`` played on ``env`` (closed after)."""
     results, trajectories = {}, {}
     for agent in agents:
-        results[agent.name] = run_agent(env_id, agent, episodes, seed, progress)
+        results[agent.name] = run_agent(env.spec.id, agent, episodes, seed, progress)
         trajectories[agent.name] = run_episode(env, agent, seed, trajectory=True)["trajectory"]
     env.close()
     return results, trajectories
@@ -436,6 +579,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--episodes", type=int, default=200, help="paired episodes per agent")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses reset(seed=seed + i)")
     parser.add_argument("--out", type=Path, help="report directory (default: reports/<env>)")
+    parser.add_argument("--overwrite", action="store_true", help="replace the report --out holds (refused otherwise)")
     parser.add_argument("--raw-observations", action="store_true",
                         help="accept models with neither a run.json nor VecNormalize statistics beside them as "
                              "trained on raw observations (refused otherwise)")
@@ -449,27 +593,40 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     if args.seed < 0:
         parser.error(f"--seed must be >= 0, got {args.seed}")
     args.out = args.out or Path("reports") / args.env
-    check_writable_dir(args.out, "--out")
+    check_out(args.out, args.overwrite)
     return args
 
 
 def main(argv: list[str] | None = None) -> int:
-    """evaluate.py: 0, or 2 after one line on stderr (nothing written)."""
+    """evaluate.py: 0; 2 after one line on stderr, nothing written; 130 after Ctrl-C, nothing written."""
+    try:
+        with OneLineWarnings() as warnings_shown:
+            return evaluate_and_report(argv, warnings_shown)
+    except KeyboardInterrupt:
+        fail("interrupted: no report written, --out is as it was")
+        return 130
+
+
+def evaluate_and_report(argv: list[str] | None, warnings_shown: OneLineWarnings) -> int:
+    """:func:`main`'s work; Python warnings show once the checks have passed, a line each."""
     try:
         args = parse_args(argv)
         one_thread_per_process()
-        results, trajectories = evaluate(args.env, args.agent, args.episodes, args.seed, args.raw_observations,
-                                         progress=not args.no_progress_bar)
+        env, agents = load_agents(args.env, args.agent, args.raw_observations)
+        warnings_shown.release()
+        results, trajectories = play(env, agents, args.episodes, args.seed, progress=not args.no_progress_bar)
     except (UsageError, ModelLoadError, ValueError) as err:
         return fail(err)
     # A model is recorded by the file it is, not the link it was reached by (runs/latest moves on).
-    agents = [spec if spec in BASELINES else str(Path(spec).resolve()) for spec in args.agent]
-    config = {"episodes": args.episodes, "seed": args.seed, "agents": agents,
+    specs = [spec if spec in BASELINES else str(Path(spec).resolve()) for spec in args.agent]
+    config = {"episodes": args.episodes, "seed": args.seed, "agents": specs,
               "env_kwargs": {k: repr(v) for k, v in gym.spec(args.env).kwargs.items()}}
     try:
-        report = write_report(args.out, args.env, config, results, trajectories)
-    except OSError as err:  # writable when checked, but not now (disk full, removed): keep what was written
-        return fail(f"--out {args.out}: {err} (the files written before it are kept)")
+        report = write_report(args.out, args.env, config, results, trajectories, args.overwrite)
+    except UsageError as err:  # another evaluation published a report there meanwhile
+        return fail(err)
+    except OSError as err:  # writable when checked, but not now (disk full, removed)
+        return fail(f"--out {args.out}: {err} (no report written, --out is as it was)")
     for name, s in report["agents"].items():
         lo, hi = s["success_ci95"]
         print(f"{name:>32}: success {s['success_rate']:.1%} [{lo:.1%}, {hi:.1%}], "

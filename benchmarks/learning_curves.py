@@ -45,6 +45,12 @@ REFERENCES = {"lqg": "LQG", "lqg-mm": "adaptive LQG (lqg-mm)", "lqg-mm-offset": 
               "lqr-oracle": "ceiling: LQR oracle", "lqg-oracle": "ceiling: LQG oracle"}
 #: Their line styles, one each (a sixth reference needs a sixth style).
 REFERENCE_STYLES = ("--", ":", (0, (1, 4)), "-.", (0, (5, 1, 1, 1, 1, 1)))
+#: The y axis's top [%]: above 100, so that a line at 98-100 % (the bounds, the adaptive LQG) is not
+#: drawn into the frame, with room above it for its label.
+Y_TOP = 106.0
+#: Reference lines closer than this [points of success] cannot be told apart at the figure's size:
+#: they are named together above the highest of them.
+BUNDLE_POINTS = 2.0
 
 
 def run_histories(pattern: str) -> dict[str, list[tuple[int, float]]]:
@@ -89,6 +95,20 @@ def reference_rates(report: Path, env_id: str) -> dict[str, tuple[float, int]]:
             for name, label in REFERENCES.items() if name in agents}
 
 
+def bundles(references: dict[str, tuple[float, int]]) -> list[list[str]]:
+    """Groups of two or more reference lines (by label) that lie within :data:`BUNDLE_POINTS` of
+    their neighbour, lowest first."""
+    groups: list[list[str]] = []
+    previous = None
+    for label, (rate, _) in sorted(references.items(), key=lambda item: item[1][0]):
+        if previous is not None and 100 * (rate - previous) < BUNDLE_POINTS:
+            groups[-1].append(label)
+        else:
+            groups.append([label])
+        previous = rate
+    return [group for group in groups if len(group) > 1]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = cli.Parser(prog="python -m benchmarks.learning_curves", description=cli.describe(__doc__),
                         formatter_class=cli.HelpFormatter)
@@ -126,7 +146,12 @@ def main(argv: list[str] | None = None) -> int:
     ax.set_xlabel("env steps")
     ax.set_ylabel("selection success [%]")
     ax.set_title(f"{args.env}: success of the deterministic policy on the selection episodes")
-    ax.set_ylim(0, 100)
+    ax.set_ylim(0, Y_TOP)
+    for group in bundles(references):
+        rates = [100 * references[label][0] for label in group]
+        ax.annotate(f"{' / '.join(group)}: {min(rates):.1f}–{max(rates):.1f} %, on top of each other",
+                    (0.99, max(rates)), xycoords=("axes fraction", "data"), xytext=(0, 2), textcoords="offset points",
+                    ha="right", va="bottom", fontsize=7, color="0.2")
     ax.grid(alpha=0.3)
     if args.legend == "below":  # curves that fill the axes: the legend under them
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
@@ -134,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
         ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(args.out, dpi=110)
+    fig.savefig(args.out, dpi=110, bbox_inches="tight")  # a legend below the axes is not cut off
     for label, steps, rates, runs in configs:
         last = rates[:, -1]
         print(f"{label}: {len(runs)} seeds to {steps[-1]:,} steps; last evaluation {100 * last.mean():.1f} % "

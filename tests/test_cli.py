@@ -30,7 +30,8 @@ REFUSED = {
                  ["--resume", "missing"]],
     "evaluate.py": [[], ["--agent", "nope"], ["--agent", "lqr", "--seed", "-1"], ["--agent", "lqr", "--episodes", "0"],
                     ["--agent", "lqr", "--env", "CartPole-v1"], ["--agent", "lqr", "--out", "file/report"],
-                    ["--agent", "lqr", "--agent", "lqr"], ["--agent", "runs/latest/best_model.zip"]],
+                    ["--agent", "lqr", "--agent", "lqr"], ["--agent", "runs/latest/best_model.zip"],
+                    ["--agent", "lqr", "--out", "reports/old"], ["--agent", "lqr", "--out", "runs"]],
     "agents.grid": [[], ["bogus"], ["status"], ["render"], ["run", "--seeds", "-1"], ["run", "--default-seeds", "x"],
                     ["run", "--grace", "1", "--heartbeat", "30"], ["run", "--envs", "CartPole-v1"],
                     ["run", "--algos", "ppo", "ppo"], ["render", "--readme", "missing.md"],
@@ -44,9 +45,12 @@ REFUSED = {
 
 @pytest.fixture
 def workdir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """A working folder with an earlier run that ``runs/latest`` points at, and a regular file."""
+    """A working folder with an earlier run that ``runs/latest`` points at, an earlier report, and
+    a regular file."""
     (tmp_path / "runs/old").mkdir(parents=True)
     (tmp_path / "runs/old/run.json").write_text("{}")
+    (tmp_path / "reports/old").mkdir(parents=True)
+    (tmp_path / "reports/old/report.json").write_text("{}")
     (tmp_path / "runs/latest").symlink_to("old")
     (tmp_path / "file").write_text("not a folder\n")
     (tmp_path / "list.yml").write_text("LightSail-v0:\n  - n_timesteps: 100\n")

@@ -5,7 +5,11 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import shutil
+import signal
+import subprocess
+import sys
 import tempfile
 import warnings
 
@@ -118,10 +122,24 @@ def test_missing_or_corrupt_model_is_a_one_line_error(content: bytes | None, tmp
     path = tmp_path / "model.zip"
     if content is not None:
         path.write_bytes(content)
-    assert evaluate.main(["--agent", "lqr", "--agent", str(path), "--episodes", "2", "--out", str(tmp_path)]) == 2
+    out = tmp_path / "report"
+    assert evaluate.main(["--agent", "lqr", "--agent", str(path), "--episodes", "2", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert str(path) in err and "\n" not in err
-    assert not (tmp_path / "report.json").exists()
+    assert not out.exists()
+
+
+def test_a_missing_model_is_named_with_the_models_its_folder_holds(model: Path, tmp_path: Path,
+                                                                   capsys: pytest.CaptureFixture,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A short run saves no best_model.zip, and the README's next command names it (issue 42)."""
+    (tmp_path / "latest").symlink_to(model.parent, target_is_directory=True)
+    err = _refused(["--agent", str(tmp_path / "latest" / "best_model.zip"), "--out", str(tmp_path / "report")],
+                   capsys, monkeypatch)
+    assert f"{tmp_path / 'latest'} holds final_model.zip: pass one of those" in err
+    (tmp_path / "empty").mkdir()
+    err = _refused(["--agent", str(tmp_path / "empty" / "best_model.zip")], capsys, monkeypatch)
+    assert f"{tmp_path / 'empty'} holds no model (.zip)" in err
 
 
 # ---------------------------------------------------------------------- command-line errors
@@ -178,15 +196,120 @@ def test_out_where_nothing_can_be_written_is_refused_before_any_episode(capsys: 
     assert not out.exists()
 
 
-def test_a_failed_write_keeps_the_files_written_before_it(tmp_path: Path, capsys: pytest.CaptureFixture,
-                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+# ---------------------------------------------------------------------- the report: whole or not at all
+def _files(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (hidden ones too) with its bytes."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _agents_of_report(out: Path) -> tuple[list[str], list[str], list[str]]:
+    """The agents report.json, episodes.csv and report.md name: the same when the report is one run's."""
+    with (out / "episodes.csv").open() as file:
+        in_csv = list(dict.fromkeys(row["agent"] for row in csv.DictReader(file)))
+    in_md = [line.split(" | ")[0].removeprefix("| ") for line in (out / "report.md").read_text().splitlines()
+             if line.startswith("| ") and not line.startswith("| agent")]
+    return list(_strict_json(out / "report.json")["agents"]), in_csv, in_md
+
+
+@pytest.fixture
+def earlier(tmp_path: Path) -> Path:
+    """A folder holding the report of an earlier evaluation (passive, two episodes)."""
+    out = tmp_path / "reports" / "earlier"
+    assert evaluate.main(["--agent", "passive", "--episodes", "2", "--out", str(out), "--no-progress-bar"]) == 0
+    return out
+
+
+def test_an_earlier_report_is_kept_unless_overwrite(earlier: Path, capsys: pytest.CaptureFixture,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """evaluate.py replaced an earlier report in the same --out without a word (issue 42)."""
+    before = _files(earlier.parent)
+    err = _refused(["--agent", "lqr", "--episodes", "2", "--out", str(earlier)], capsys, monkeypatch)
+    assert f"--out {earlier} holds a report already: --overwrite replaces it" in err
+    assert _files(earlier.parent) == before
+    monkeypatch.undo()
+    assert evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(earlier), "--overwrite",
+                          "--no-progress-bar"]) == 0
+    assert _agents_of_report(earlier) == (["lqr"], ["lqr"], ["lqr"])
+    assert sorted(p.name for p in earlier.parent.iterdir()) == ["earlier"]  # nothing left beside it
+
+
+def test_an_out_holding_other_files_is_refused_even_with_overwrite(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "notes.txt").write_text("mine")
+    err = _refused(["--agent", "lqr", "--out", str(tmp_path), "--overwrite"], capsys, monkeypatch)
+    assert f"--out {tmp_path} holds files that are not a report's (notes.txt)" in err
+    assert _files(tmp_path) == {"notes.txt": b"mine"}
+
+
+@pytest.mark.parametrize("failure", [OSError(28, "No space left on device"), KeyboardInterrupt()],
+                         ids=["disk full", "ctrl-c"])
+def test_a_write_cut_short_leaves_the_earlier_report_as_it_was(failure: BaseException, earlier: Path,
+                                                               capsys: pytest.CaptureFixture,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """A failed write, or Ctrl-C while writing, left a half-written report.json beside the old files."""
+    before = _files(earlier.parent)
+    def cut_short(*args: object) -> None:
+        raise failure
+    monkeypatch.setattr(evaluate, "plot_success_vs_tilt", cut_short)
+    code = evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(earlier), "--overwrite",
+                          "--no-progress-bar"])
+    err = capsys.readouterr().err.strip()
+    assert code == (130 if isinstance(failure, KeyboardInterrupt) else 2) and "\n" not in err
+    assert err.startswith("error: ") and "--out is as it was" in err
+    assert _files(earlier.parent) == before
+
+
+def test_a_failed_write_leaves_no_folder_it_made(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
     def disk_full(*args: object) -> None:
         raise OSError(28, "No space left on device")
-    monkeypatch.setattr(evaluate, "plot_success_vs_tilt", disk_full)
-    assert evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(tmp_path), "--no-progress-bar"]) == 2
-    err = capsys.readouterr().err.strip()
-    assert "No space left on device" in err and "files written before it are kept" in err and "\n" not in err
-    assert (tmp_path / "report.json").is_file() and not (tmp_path / "report.md").exists()
+    monkeypatch.setattr(evaluate, "plot_pointing", disk_full)
+    assert evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(tmp_path / "a" / "b" / "report"),
+                          "--no-progress-bar"]) == 2
+    assert "No space left on device" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("overwrite", [False, True])
+def test_two_evaluations_into_one_out_never_mix(overwrite: bool, tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """Another evaluation publishes into --out while this one writes its plots. Both exited 0,
+    leaving one's report.json beside the other's report.md (issue 42). Now this one refuses with
+    one line (the other's report stays whole), or with --overwrite replaces it whole."""
+    out, flags = tmp_path / "report", ["--overwrite"] if overwrite else []
+    plot, others = evaluate.plot_success_vs_tilt, []
+    def meanwhile(*args: object, **kwargs: object) -> None:
+        if not others:  # the outer evaluation's call: the other one runs to its end now
+            others.append(None)
+            others[0] = evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(out), "--no-progress-bar"])
+        plot(*args, **kwargs)
+    monkeypatch.setattr(evaluate, "plot_success_vs_tilt", meanwhile)
+    code = evaluate.main(["--agent", "passive", "--episodes", "2", "--out", str(out), "--no-progress-bar", *flags])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("error")]
+    winner = "passive" if overwrite else "lqr"
+    assert others == [0] and _agents_of_report(out) == ([winner], [winner], [winner])
+    assert sorted(p.name for p in out.iterdir()) == sorted(evaluate.REPORT_FILES)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]
+    if overwrite:
+        assert code == 0 and err == []
+    else:
+        assert code == 2 and len(err) == 1 and "another evaluation wrote its report there while this one ran" in err[0]
+
+
+def test_ctrl_c_while_a_report_replaces_another_waits_for_the_swap(earlier: Path, tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """--overwrite moves the earlier report aside, then renames the new one into place: Ctrl-C
+    between the two would leave neither at --out; it is raised once both are done."""
+    staging = tmp_path / "reports" / ".staged"
+    staging.mkdir()
+    (staging / "report.json").write_text("{}")
+    rename = Path.rename
+    def interrupted_rename(self: Path, target: Path) -> Path:
+        os.kill(os.getpid(), signal.SIGINT)
+        return rename(self, target)
+    monkeypatch.setattr(Path, "rename", interrupted_rename)
+    with pytest.raises(KeyboardInterrupt):
+        evaluate.publish(staging, earlier, overwrite=True)
+    assert _files(earlier.parent) == {"earlier/report.json": b"{}"}
 
 
 def test_help_shows_defaults_and_env_ids(capsys: pytest.CaptureFixture) -> None:
@@ -273,6 +396,51 @@ def test_without_a_terminal_each_agent_reports_one_line_when_done(tmp_path: Path
     assert evaluate.main(["--agent", "passive", "--agent", "lqr", "--episodes", "3", "--out", str(tmp_path)]) == 0
     lines = capsys.readouterr().err.splitlines()
     assert [line.split(" in ")[0] for line in lines] == ["passive: 3 episodes", "lqr: 3 episodes"]
+
+
+def test_on_a_terminal_the_bar_alone_shows_progress(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """tqdm's close() sets ``disable``, which the log line was keyed on: a terminal got both (issue 42)."""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    assert evaluate.main(["--agent", "lqr", "--episodes", "2", "--out", str(tmp_path / "report")]) == 0
+    err = capsys.readouterr().err
+    assert "2/2" in err and "episodes in" not in err
+
+
+def test_in_a_log_a_long_evaluation_says_how_far_it_is(capsys: pytest.CaptureFixture,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """2,000 episodes were minutes without a line in a log: a line every LOG_EVERY_S, then the total."""
+    agent = evaluate.BASELINES["passive"](gym.make("LightSail-v0").unwrapped.episode_spec)
+    monkeypatch.setattr(evaluate, "BATCH_EPISODES", 1)
+    monkeypatch.setattr(evaluate, "LOG_EVERY_S", 0.0)
+    evaluate.run_agent("LightSail-v0", agent, 3, 7)
+    lines = [line.split(",")[0].split(" in ")[0] for line in capsys.readouterr().err.splitlines()]
+    assert lines == ["passive: 1/3 episodes", "passive: 2/3 episodes", "passive: 3 episodes"]
+
+
+def test_warnings_are_one_line_each_and_held_back_by_a_refusal(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """gymnasium's warning about an out-of-date env id was two lines (file, then code) on stderr."""
+    make = gym.make
+    def make_with_a_warning(*args: object, **kwargs: object) -> gym.Env:
+        warnings.warn("\x1b[33mWARN: The environment is out of date.\nUpgrade.\x1b[0m", DeprecationWarning)
+        return make(*args, **kwargs)
+    monkeypatch.setattr(gym, "make", make_with_a_warning)
+    argv = ["--agent", "lqr", "--episodes", "2", "--out", str(tmp_path / "report"), "--no-progress-bar"]
+    assert evaluate.main(argv) == 0
+    assert capsys.readouterr().err.splitlines()[0] == "warning: The environment is out of date. Upgrade."
+    assert evaluate.main([*argv, "--agent", str(tmp_path / "missing.zip")]) == 2
+    assert capsys.readouterr().err.startswith("error: ")
+
+
+def test_an_out_of_date_id_and_a_model_of_another_task_are_one_line(model: Path, tmp_path: Path) -> None:
+    """The real entry point: a planar model on LightSail3DRealistic-v0 printed three lines (issue 42)."""
+    done = subprocess.run([sys.executable, str(ROOT / "evaluate.py"), "--env", "LightSail3DRealistic-v0",
+                           "--agent", str(model), "--episodes", "1", "--out", str(tmp_path / "rapport-é")],
+                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    assert done.stderr.startswith("error: ") and done.stderr.count("\n") == 1, done.stderr
+    assert "this model was trained on LightSail-v0" in done.stderr and not (tmp_path / "rapport-é").exists()
 
 
 def test_batches_play_the_same_episodes_as_one_batch(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -423,18 +591,34 @@ def test_the_plots_name_their_env_the_3d_axis_and_coinciding_curves(tmp_path: Pa
     figures = []
     monkeypatch.setattr(plt.Figure, "savefig", lambda fig, *args, **kwargs: figures.append(fig))
     monkeypatch.setattr(plt, "close", lambda fig=None: None)
-    steps = np.column_stack([np.linspace(0.0, 1.0, 50), *np.random.default_rng(0).normal(size=(4, 50))])
+    steps = np.column_stack([np.linspace(0.0, 1.0, 50), *np.random.default_rng(0).normal(size=(8, 50))])
     evaluation.plot_trajectories({"lqr": steps, "lqg": steps}, tmp_path / "t.png", "LightSail3D-v0", three_d=True)
     episodes = [{"terminal_pointing_rad": p, "success": p < 1e-8, "theta_x0": 1e-3, "theta_y0": 0.0}
                 for p in (1e-12, 2e-12, 1e-7)]
     evaluation.plot_pointing({"lqr": episodes, "lqg": episodes}, tmp_path / "p.png", "LightSail3D-v0")
     evaluation.plot_success_vs_tilt({"lqr": episodes}, tmp_path / "s.png", "LightSail3D-v0", three_d=True)
     trajectory, pointing, tilt = figures
-    assert [ax.get_ylabel() for ax in trajectory.axes][:2] == ["x [mm]", "θy [mrad]"]
-    assert "3D" in trajectory.axes[-1].get_xlabel()
+    assert [ax.get_ylabel() for ax in trajectory.axes][:4] == ["x [mm]", "y [mm]", "θy [mrad]", "θx [mrad]"]
+    assert "3D" in trajectory.axes[0].get_title(loc="left")
     assert all("LightSail3D-v0" in [t.get_text() for t in fig.texts] for fig in figures)
     assert "lqr = lqg" in pointing.axes[0].get_title(loc="right")
     assert "total tilt" in tilt.axes[0].get_xlabel()
+
+
+def test_a_3d_trajectory_holds_both_lateral_axes() -> None:
+    """Only x, θy and the beam on x were recorded and plotted for the 3D tasks (issue 42): a row is
+    t, then x, θy, d_x, ψ_x, then y, θx, d_y, ψ_y, as the env reports them."""
+    env = gym.make("LightSail3D-v0")
+    agent = evaluate.BASELINES["lqr"](env.unwrapped.episode_spec)
+    steps = evaluate.run_episode(env, agent, 3, trajectory=True)["trajectory"]
+    obs, _ = env.reset(seed=3)
+    agent.reset()
+    action = np.asarray(agent.act(obs), dtype=np.float32)
+    state = env.step(action)[4]["state"]
+    d_x, d_y, psi_x, psi_y = np.clip(action, -1, 1) * env.unwrapped.episode_spec.action_scale
+    np.testing.assert_array_equal(steps[0, 1:], [state["x"], state["theta_y"], d_x, psi_x,
+                                                 state["y"], state["theta_x"], d_y, psi_y])
+    assert np.abs(steps[:, 5:]).max(axis=0).min() > 0  # the y axis moves: not a column of zeros
 
 
 def test_the_ceiling_benchmark_pairs_a_trained_model_with_lqg(model: Path, tmp_path: Path) -> None:

@@ -20,8 +20,13 @@ from __future__ import annotations
 import ast
 import hashlib
 import importlib
+import json
+import math
+import os
 import pkgutil
 import re
+import subprocess
+import sys
 import types
 from pathlib import Path
 
@@ -186,3 +191,37 @@ def test_the_derivation_finds_what_the_kernels_compile_in() -> None:
                                                          OPTIONS}
     assert compiled_in("sail_env.core.reward") != [OPTIONS]
     assert "sail_env/physics/constants.py" in compiled_in("sail_env.physics.rigid3d.flight")
+
+
+#: A read-only install used by someone without a writable home: Numba finds no directory to cache in (its
+#: locators' check that a directory can be written is made to fail, as root may write anywhere).
+READ_ONLY_EPISODE = """
+import json, warnings
+import numba.core.caching as caching
+
+def read_only(self):
+    raise PermissionError(13, "Read-only file system", self.get_cache_path())
+
+caching._CacheLocator.ensure_cache_path = read_only
+with warnings.catch_warnings(record=True) as warned:
+    warnings.simplefilter("default")
+    import gymnasium as gym
+    import sail_env
+    env = gym.make("LightSail-v0")
+    env.reset(seed=0)
+    rewards = [env.step(env.action_space.sample())[1] for _ in range(3)]
+print(json.dumps({"warnings": [f"{w.category.__name__}: {w.message}" for w in warned], "rewards": rewards}))
+"""
+
+
+def test_a_read_only_install_without_a_writable_home_compiles_without_a_cache_and_warns_once(tmp_path) -> None:
+    environment = {name: value for name, value in os.environ.items()
+                   if name not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME", "LIGHTSAIL_GYM_CACHE")}
+    environment.update(HOME="/nonexistent", PYTHONPATH=str(ROOT))
+    run = subprocess.run([sys.executable, "-c", READ_ONLY_EPISODE], cwd=tmp_path, env=environment,
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    played = json.loads(run.stdout.splitlines()[-1])
+    assert len(played["rewards"]) == 3 and all(math.isfinite(reward) for reward in played["rewards"])
+    (warning,) = played["warnings"]
+    assert warning.startswith("RuntimeWarning: Numba has no writable directory") and "NUMBA_CACHE_DIR" in warning

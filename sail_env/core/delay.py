@@ -9,7 +9,7 @@ from sail_env.physics.mission import one_way_light_delay_s
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
-# compiled in: sail_env/jit.py sha256:9eb1eb4a3b07ab0d
+# compiled in: sail_env/jit.py sha256:9d3b73adb7f50647
 
 
 def delay_steps(acceleration_m_s2: np.ndarray | float, control_start_s: float, dt: float,

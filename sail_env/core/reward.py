@@ -23,7 +23,7 @@ from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
-# compiled in: sail_env/jit.py sail_env/physics/pointing.py sha256:e6bdfee0a8afcf9b
+# compiled in: sail_env/jit.py sail_env/physics/pointing.py sha256:563b13e018107ba2
 
 #: Reward: log10 of (pointing / tolerance) is clipped to this range.
 LOG_RATIO_RANGE = (-2.0, 3.0)

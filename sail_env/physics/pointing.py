@@ -18,7 +18,7 @@ from sail_env.physics.planar import VX, PlanarModel, rates
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
-# compiled in: sail_env/jit.py sha256:9eb1eb4a3b07ab0d
+# compiled in: sail_env/jit.py sha256:9d3b73adb7f50647
 
 #: Seed eq 20: the flight direction must be within ~1e-8 rad to pass Proxima b closer
 #: than the Earth-Moon distance (see :func:`sail_env.physics.mission.pointing_tolerance_rad`).

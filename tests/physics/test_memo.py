@@ -2,15 +2,23 @@
 and another sail gets its own."""
 
 import dataclasses
+import inspect
+import multiprocessing
 import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import sail_env  # noqa: F401
-from sail_env.physics import memo
+from sail_env.physics import blas, memo
 from sail_env.physics.memo import built_once
+from sail_env.physics.rigid3d import flight, scales, uncertainty
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.flight import DrawFlights
@@ -101,26 +109,114 @@ def test_a_table_is_built_once_written_and_loaded_by_a_later_process_to_the_bit(
     later = built_once(counted_table)(5)  # a new process: a new in-memory cache, the same directory
     assert BUILT == [5] and later is not first and np.array_equal(later, first)
     assert later.tobytes() == (np.arange(5) / 7.0).tobytes() and not later.flags.writeable
-    assert len(list(tables_dir.glob("counted_table-*.pkl"))) == 1 and not list(tables_dir.glob("*.tmp"))
+    assert len(list(tables_dir.glob(f"counted_table-*{memo.SUFFIX}"))) == 1 and not list(tables_dir.glob("*.tmp"))
     built_once(counted_table)(6)
     assert BUILT == [5, 6]
 
 
 def test_a_new_machine_set_up_a_file_of_another_key_or_an_unreadable_one_builds_afresh(tables_dir, monkeypatch):
     built_once(counted_table)(5)
-    (first,) = tables_dir.glob("*.pkl")
+    (first,) = tables_dir.glob(f"*{memo.SUFFIX}")
     # Other OpenBLAS blocking (or kernels) round differently: another key, another file.
     monkeypatch.setenv("OPENBLAS_L2_SIZE", str(int(os.environ.get("OPENBLAS_L2_SIZE") or 0) + 4096))
     memo.code_version.cache_clear()
     built_once(counted_table)(5)
-    (second,) = set(tables_dir.glob("*.pkl")) - {first}
+    (second,) = set(tables_dir.glob(f"*{memo.SUFFIX}")) - {first}
     assert BUILT == [5, 5]
     second.write_bytes(first.read_bytes())  # a whole file under another name: its stored key tells
-    built_once(counted_table)(5)
+    with pytest.warns(RuntimeWarning, match="another table"):
+        built_once(counted_table)(5)
     second.write_bytes(b"truncated")
-    built_once(counted_table)(5)
+    with pytest.warns(RuntimeWarning, match="not a table file"):
+        built_once(counted_table)(5)
     assert BUILT == [5, 5, 5, 5]
     assert np.array_equal(built_once(counted_table)(5), np.arange(5) / 7.0) and BUILT == [5, 5, 5, 5]
+
+
+def flip_a_bit_in_the_array(content: bytes) -> bytes:
+    """The file with one bit flipped inside the table's float array (as a disk or a copy might)."""
+    at = content.index((np.arange(50) / 7.0).tobytes()) + 8 * 20 + 3
+    return content[:at] + bytes([content[at] ^ 0x10]) + content[at + 1:]
+
+
+@pytest.mark.parametrize("damage, reason", [
+    (flip_a_bit_in_the_array, "does not match its SHA-256"),
+    (lambda content: content[: len(content) * 2 // 3], "does not match its SHA-256"),  # a writer killed mid-copy
+    (lambda content: content.replace(b"table 1\n", b"table 2\n", 1), "not a table file of this format and version"),
+    (lambda content: b"\x80\x05" + content, "not a table file"),  # a pickle, say
+])
+def test_a_damaged_truncated_or_foreign_file_is_never_used_but_built_again_with_one_warning(tables_dir, damage,
+                                                                                             reason):
+    built_once(counted_table)(50)
+    (path,) = tables_dir.glob(f"*{memo.SUFFIX}")
+    path.write_bytes(damage(path.read_bytes()))
+    with pytest.warns(RuntimeWarning) as warned:
+        rebuilt = built_once(counted_table)(50)
+    assert len(warned) == 1 and reason in str(warned[0].message) and str(path) in str(warned[0].message)
+    assert BUILT == [50, 50] and rebuilt.tobytes() == (np.arange(50) / 7.0).tobytes()
+    # Replaced (atomically: no temporary file left): the next process loads it, without a warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert built_once(counted_table)(50).tobytes() == rebuilt.tobytes()
+    assert BUILT == [50, 50] and list(tables_dir.iterdir()) == [path]
+
+
+@pytest.mark.parametrize("structure, arrays", [
+    ({"partial": [{"function": "shutil:rmtree"}, {"tuple": ["."]}, {"dict": []}]}, []),
+    ({"object": ["subprocess:Popen", None]}, []),
+    ({"object": ["builtins:eval", None]}, []),
+    ({"array": 0}, [np.array([print], dtype=object)]),  # an array of objects (a pickle inside)
+])
+def test_a_file_runs_no_code_it_names(tables_dir, tmp_path, monkeypatch, structure, arrays):
+    """The format holds no code: a file can name only classes and functions of this package and SciPy that
+    are already imported, and loading calls none of its functions."""
+    monkeypatch.chdir(tmp_path)  # where a forged rmtree(".") would have removed the tables
+    built_once(counted_table)(5)
+    (path,) = tables_dir.glob(f"*{memo.SUFFIX}")
+    key = memo._read(path)[0]
+    with monkeypatch.context() as patch, path.open("wb") as file:  # forged, its digest right
+        patch.setattr(memo, "_to_arrays", lambda table: (structure, arrays))
+        memo._write(file, key, None)
+    with pytest.warns(RuntimeWarning, match="not used"):
+        assert built_once(counted_table)(5).tobytes() == (np.arange(5) / 7.0).tobytes()
+    assert BUILT == [5, 5] and list(tmp_path.iterdir()) == [tables_dir]
+
+
+RACE: list = []  # the barrier the racing writers meet at (set before they fork)
+
+
+def raced_table(size: int) -> np.ndarray:
+    """A table whose builders wait for each other: both have found no file, both write."""
+    BUILT.append(size)
+    RACE[0].wait(timeout=120)
+    return np.arange(size) / 7.0
+
+
+def test_two_processes_writing_the_same_table_leave_one_whole_file(tables_dir, monkeypatch):
+    context = multiprocessing.get_context("fork")
+    monkeypatch.setattr(sys.modules[__name__], "RACE", [context.Barrier(2)])
+    writers = [context.Process(target=built_once(raced_table), args=(40,)) for _ in range(2)]
+    for writer in writers:
+        writer.start()
+    for writer in writers:
+        writer.join(timeout=180)
+    assert [writer.exitcode for writer in writers] == [0, 0]
+    (path,) = tables_dir.iterdir()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert built_once(raced_table)(40).tobytes() == (np.arange(40) / 7.0).tobytes()
+    assert BUILT == []  # this process loaded what the others wrote
+
+
+def unnamed_parts(size: int) -> dict:
+    BUILT.append(size)
+    return {"rows": np.arange(size), "pick": lambda row: row}
+
+
+def test_a_table_the_format_cannot_hold_is_kept_in_memory_only(tables_dir):
+    built_once(unnamed_parts)(3)
+    assert built_once(unnamed_parts)(3)["pick"](2) == 2
+    assert BUILT == [3, 3] and not list(tables_dir.iterdir())
 
 
 def test_a_file_that_cannot_be_touched_is_still_read_and_stale_temporary_files_go(tables_dir, monkeypatch):
@@ -155,13 +251,16 @@ def test_the_disk_keeps_the_most_recently_used_tables_of_a_kind(tables_dir, monk
     monkeypatch.setattr(memo, "TABLES_KEPT", 2)
     once = built_once(counted_table)
     once(1), once(2)
+    earlier_format = tables_dir / "counted_table-0123456789abcdef0123456789abcdef.pkl"
+    earlier_format.write_bytes(b"a pickle, never read again")
+    os.utime(earlier_format, (1e8, 1e8))
     for age, size in ((2, 1), (1, 2)):  # 1 older than 2, both long ago (whatever the clock's resolution)
-        (path,) = [p for p in tables_dir.glob("*.pkl") if np.array_equal(memo.pickle.loads(p.read_bytes())[1],
-                                                                           np.arange(size) / 7.0)]
+        (path,) = [p for p in tables_dir.glob(f"*{memo.SUFFIX}") if np.array_equal(memo._read(p)[1],
+                                                                                    np.arange(size) / 7.0)]
         os.utime(path, (1e9 - age, 1e9 - age))
     built_once(counted_table)(1)  # read from disk: now the most recently used
     once(3)
-    assert BUILT == [1, 2, 3] and len(list(tables_dir.glob("counted_table-*.pkl"))) == 2
+    assert BUILT == [1, 2, 3] and len(list(tables_dir.glob("counted_table-*"))) == 2
     built_once(counted_table)(1), built_once(counted_table)(3)
     assert BUILT == [1, 2, 3]
     built_once(counted_table)(2)  # its file was the oldest: removed, built again
@@ -184,7 +283,7 @@ def test_the_3d_tables_loaded_from_disk_are_the_built_ones_to_the_bit(tables_dir
     flights_args = (SAIL, 1200.0, True, 5e8, 1.2)
     fresh = DrawFlights(RigidSail(SAIL), *flights_args[1:])
     written, loaded = built_once(counted_flights)(*flights_args), built_once(counted_flights)(*flights_args)
-    assert BUILT == ["flights"] and written is not loaded and len(list(tables_dir.glob("*.pkl"))) == 1
+    assert BUILT == ["flights"] and written is not loaded and len(list(tables_dir.glob(f"*{memo.SUFFIX}"))) == 1
     for name, value in vars(fresh.table).items():
         assert np.array_equal(np.asarray(getattr(loaded.table, name)), np.asarray(value)), name
     ratios, times = np.full(7, 1.1), np.linspace(0.0, 1200.0, 7)
@@ -208,6 +307,34 @@ def test_the_3d_tables_loaded_from_disk_are_the_built_ones_to_the_bit(tables_dir
     assert BUILT == ["flights", "scales", "curvature"]
 
 
+#: A new process loads the three 3D tables another wrote (building is made to fail), without a warning.
+LOAD_IN_A_NEW_PROCESS = """
+import warnings
+warnings.simplefilter("error")
+from sail_env.physics.rigid3d import flight, scales, uncertainty
+from sail_env.physics.rigid3d.config import RigidSailConfig
+
+def refused(*args, **kwargs):
+    raise AssertionError("built, not loaded")
+
+flight.DrawFlights.__init__ = scales.ScaleTable.__init__ = uncertainty.CurvatureTable.__init__ = refused
+flight.draw_flights(*{flights!r}), scales.scale_table(*{scales!r}), uncertainty.curvature_table(*{curvature!r})
+"""
+
+
+def test_a_new_process_loads_the_3d_tables_before_it_imported_their_classes_modules(tables_dir):
+    """SciPy's splines of the curvature table are of a module a new process imports only when it loads them."""
+    arguments = {"flights": (SAIL, 1200.0, True, 5e8, 1.2), "scales": (SAIL, 1.5, True),
+                 "curvature": (SAIL, 1.0, 0.2)}
+    factories = (flight.draw_flights, scales.scale_table, uncertainty.curvature_table)
+    for factory, args in zip(factories, arguments.values()):
+        memo._stored(inspect.unwrap(factory), args)
+    assert len(list(tables_dir.iterdir())) == 3
+    run = subprocess.run([sys.executable, "-c", LOAD_IN_A_NEW_PROCESS.format(**arguments)], capture_output=True,
+                         text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(Path(memo.__file__).parents[2])})
+    assert run.returncode == 0, run.stderr[-2000:]
+
+
 def test_the_directory_is_the_variable_s_else_the_xdg_cache_s_else_the_home_s(monkeypatch, tmp_path):
     monkeypatch.delenv(memo.CACHE_VARIABLE)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
@@ -218,3 +345,16 @@ def test_the_directory_is_the_variable_s_else_the_xdg_cache_s_else_the_home_s(mo
     for off in (" Off ", "0", "false"):
         monkeypatch.setenv(memo.CACHE_VARIABLE, off)
         assert memo.cache_dir() is None
+
+
+def test_the_key_does_not_depend_on_the_order_threadpoolctl_lists_the_blas_libraries(tables_dir, monkeypatch):
+    """threadpoolctl lists NumPy's and SciPy's OpenBLAS in either order between identical processes: each
+    order must give the same key, or half the processes miss the other half's tables."""
+    numpy_s, scipy_s = (SimpleNamespace(internal_api="openblas", version=version, architecture=kernel)
+                        for version, kernel in (("0.3.27", "Haswell"), ("0.3.21", "SkylakeX")))
+    keys = set()
+    for listed in ((numpy_s, scipy_s), (scipy_s, numpy_s)):
+        monkeypatch.setattr(blas, "blas_libraries", lambda listed=listed: listed)
+        memo.code_version.cache_clear()
+        keys.add(memo.code_version())
+    assert len(keys) == 1

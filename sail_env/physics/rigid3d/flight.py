@@ -41,7 +41,7 @@ from sail_env.physics.rigid3d.config import RigidSailConfig
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
-# compiled in: sail_env/jit.py sail_env/physics/constants.py sha256:94063faffca43401
+# compiled in: sail_env/jit.py sail_env/physics/constants.py sha256:f3bba43c153af2cd
 
 #: Flights a :class:`DrawFlights` with diffraction integrates across the draws' range of ``F/m``.
 DRAW_NODES = 9
@@ -221,7 +221,7 @@ class FlightTable:
                                                      self.distance_rate, self.distance_accel], axis=-1))
 
     def __getstate__(self) -> dict:
-        """The table without its view (a third of the pickle in the disk cache, physics/memo.py)."""
+        """The table without its view (a third of its file in the disk cache, physics/memo.py)."""
         return {k: v for k, v in vars(self).items() if k != "_nodes"}
 
     def __setstate__(self, state: dict) -> None:
@@ -450,7 +450,7 @@ class DrawFlights:
         self.flights = [Flight(duration, relativistic, length, self.table, j) for j, length in enumerate(lengths)]
         self.nominal = self.flights[count // 2]
         self._positions = np.arange(count, dtype=float)
-        # Module functions, not lambdas: the flights are pickled into the table cache (physics/memo.py).
+        # Module functions, not lambdas: the table cache (physics/memo.py) stores functions by name.
         self._picks = {"speed": functools.partial(_pick_speed, relativistic=relativistic),
                        "power_factor": functools.partial(_pick_power_factor, relativistic=relativistic),
                        "distance": _pick_distance}

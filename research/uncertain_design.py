@@ -1,7 +1,7 @@
 """The best classical design for LightSailUncertain-v1 we could make: LQG's input weight and its filter's
 model-mismatch floor chosen on selection episodes (seeds 0–99, apart from evaluate.py's 100000+).
 
-    python -m benchmarks.uncertain_design [--episodes 100]    # writes benchmarks/results/uncertain_design.json
+    python -m research.uncertain_design [--episodes 100]    # writes research/results/uncertain_design.json
 
 A larger input weight lowers the loop's bandwidth (a margin against the stiffer draws, whose fast mode
 the light delay puts near the loop's phase limit); a larger mismatch floor makes the filter trust its
@@ -33,7 +33,7 @@ SELECTION_SEED = 0
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/uncertain_design.json"))
+    parser.add_argument("--out", type=Path, default=Path("research/results/uncertain_design.json"))
     args = parser.parse_args(argv)
     one_thread_per_process()
     spec = gym.make(ENV_ID).unwrapped.episode_spec

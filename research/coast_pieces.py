@@ -1,7 +1,7 @@
 """How long a coast piece can be: the midpoint rule (today's coast) against a fourth-order Magnus step,
 both against DOP853 of the linear time-varying model over the last 100 s of the realistic coast.
 
-    python -m benchmarks.coast_pieces [--out benchmarks/results/coast_pieces.json]
+    python -m research.coast_pieces [--out research/results/coast_pieces.json]
 
 The 3D realistic coast holds the model at each ≤ 5 s piece's middle (``COAST_SEGMENT_S``): the
 midpoint rule, second order in the piece's length, 0.8 % of ``V⊥`` at cut-off over the 589 s coast
@@ -17,7 +17,7 @@ cut-off) with a typical state and command. Prints and writes ``|ΔV⊥| / |V⊥|
 method and length, and the largest real part of the Magnus step's ``Ω/h`` (the sail has none: its
 modes only oscillate).
 
-Result (docs/physics.md §14; benchmarks/results/coast_pieces.json): the Magnus series converges only
+Result (docs/physics.md §14; research/results/coast_pieces.json): the Magnus series converges only
 while ``∫‖G‖ dt < π`` (Blanes et al. 2009), and a 1 s piece already turns this sail's fastest mode
 (110 rad/s after the window, 96 at cut-off; v1's: 156) by 110 rad. The commutator term
 ``(√3/12) h² [G₊, G₋] = (√3/12) h² (f₋ − f₊) [K, R]`` is then no small correction: the Magnus step
@@ -77,7 +77,7 @@ def propagate(plant, a_rad, b, window, piece: float, method: str) -> np.ndarray:
 
 
 def coast_model() -> tuple[RigidPlant, np.ndarray, np.ndarray, float]:
-    """The realistic sail of this benchmark (nominal draw), its radiation's part of ``A`` and its
+    """The realistic sail of this measurement (nominal draw), its radiation's part of ``A`` and its
     ``B`` (held at the window's power factor), and that power factor."""
     sail = RigidSailConfig(curvature_radius_m=DEEP_DISH.curvature_radius_m, absorptivity=0.1, reflectivity=0.9)
     plant = RigidPlant(RigidTaskConfig(sail, spin_rad_s=1.0, relativistic=True, control_start_s=10.0))

@@ -1,7 +1,7 @@
 """The 3D control window against the nonlinear rigid body, at the task's own starts (docs/physics.md §14).
 
-    python -m benchmarks.window_vs_nonlinear [--env LightSail3DRealistic-v0 ...] [--episodes 24]
-    python -m benchmarks.window_vs_nonlinear --env LightSail3DRealistic-v0 --beam-profile gaussian --beam-radius 2
+    python -m research.window_vs_nonlinear [--env LightSail3DRealistic-v0 ...] [--episodes 24]
+    python -m research.window_vs_nonlinear --env LightSail3DRealistic-v0 --beam-profile gaussian --beam-radius 2
 
 An episode's 1 s control window is where the linear model has to be right: the controller acts on
 it and the reward is its envelope. Here, for each task and each of ``--episodes`` seeds:
@@ -15,7 +15,7 @@ it and the reward is its envelope. Here, for each task and each of ``--episodes`
 3. integrate the same start with the nonlinear rigid body (``RigidSail.rates``: quaternion
    attitude, Euler's equations, the radiation wrench integrated over the same surface mesh at every
    evaluation), fixed-step RK4 at 0.5 ms, the beam's power scaled by the Doppler factor of the same
-   flight (as ``benchmarks/coast_vs_nonlinear.py``);
+   flight (as ``research/coast_vs_nonlinear.py``);
 4. error = max over the window of ``|Δv⊥|`` divided by the max of the nonlinear ``|v⊥|`` (the
    amplitude; the difference at one instant depends on the phase), ``v⊥ = (vx, vy)``.
 

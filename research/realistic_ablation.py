@@ -1,6 +1,6 @@
 """What limits the classical reference on LightSailRealistic-v0: each disturbance alone and all but it.
 
-    python -m benchmarks.realistic_ablation [--agent lqg] [--episodes 200]   # from the repo root
+    python -m research.realistic_ablation [--agent lqg] [--episodes 200]   # from the repo root
 
 Prints a markdown table of success rates over the same seeded episodes (evaluate.py's
 episode runner), every other disturbance of the task switched off or on.

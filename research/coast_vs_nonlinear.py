@@ -1,7 +1,7 @@
 """The 3D coast against the nonlinear rigid body over a whole flight (docs/physics.md §14).
 
-    python -m benchmarks.coast_vs_nonlinear [--start 11] [--every 10] [--rtol 1e-9] [--mesh 6 48]
-    python -m benchmarks.coast_vs_nonlinear --beam-profile gaussian --beam-radius 0.8 --rtol 1e-7   # v1's beam
+    python -m research.coast_vs_nonlinear [--start 11] [--every 10] [--rtol 1e-9] [--mesh 6 48]
+    python -m research.coast_vs_nonlinear --beam-profile gaussian --beam-radius 0.8 --rtol 1e-7   # v1's beam
 
 From the end of the control window to cut-off, the episode core propagates the linearised
 model held piecewise (``RigidPlant.coast``, noise off). Here the same start is integrated with

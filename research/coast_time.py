@@ -1,7 +1,7 @@
 """What a hard task's plant costs: a passive episode at N = 1, and a batch's coast with the machine's
 default BLAS threads against one (docs/physics.md §14, "The flight table", "BLAS threads").
 
-    python -m benchmarks.coast_time [--task LightSail3DRealistic-v1] [--rounds 5] [--out PATH]
+    python -m research.coast_time [--task LightSail3DRealistic-v1] [--rounds 5] [--out PATH]
 
 Two measures, each interleaved (A, B, A, B, …; best of the rounds) so that a shared machine's load
 falls on both alike:
@@ -15,7 +15,7 @@ falls on both alike:
 
 To compare two trees (before/after a change), run the script from each alternately with
 ``--episode-only`` and compare the printed bests. Writes a JSON beside the printout
-(``benchmarks/results/coast_time.json`` by default).
+(``research/results/coast_time.json`` by default).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """How large must LightSailUncertain-v1's unknowns be before the best classical design falls 10 points
 below the ceiling? Its sizes (curvature, absorptivity, power, pointing bias) scaled together by k.
 
-    python -m benchmarks.uncertain_sizes [--episodes 100] [--scales 1 1.5 2]   # benchmarks/results/uncertain_sizes.json
+    python -m research.uncertain_sizes [--episodes 100] [--scales 1 1.5 2]   # research/results/uncertain_sizes.json
 
 At each k the task is ``LightSailUncertain-v1`` with ``model_uncertainty`` the task's sizes times k
 (``ModelUncertainty.scaled``; k = 1 is the task). On the same paired episodes play: LQG; the offset-free
@@ -60,7 +60,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED)
     parser.add_argument("--scales", type=float, nargs="+", default=list(SCALES))
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/uncertain_sizes.json"))
+    parser.add_argument("--out", type=Path, default=Path("research/results/uncertain_sizes.json"))
     args = parser.parse_args(argv)
     one_thread_per_process()
     results = json.loads(args.out.read_text()) if args.out.is_file() else {}

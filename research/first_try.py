@@ -9,11 +9,11 @@ sampled as in training (stochastic). The training-time return of the last 200 ep
 curve such a user looks at; it is the stochastic policy's, so with the initial std of 1 (the
 whole action range) it measures the exploration noise, not the policy.
 
-    python -m benchmarks.first_try --seeds 1 2 3                       # CleanRL defaults
-    python -m benchmarks.first_try --seeds 1 2 3 --log-std-init -2     # a smaller initial std
-    python -m benchmarks.first_try --noise-table                       # LQR + Gaussian action noise
+    python -m research.first_try --seeds 1 2 3                       # CleanRL defaults
+    python -m research.first_try --seeds 1 2 3 --log-std-init -2     # a smaller initial std
+    python -m research.first_try --noise-table                       # LQR + Gaussian action noise
 
-Each run prints one JSON line and appends it to ``benchmarks/results/first_try.jsonl``
+Each run prints one JSON line and appends it to ``research/results/first_try.jsonl``
 (``--out``); the noise table prints one line per σ and appends one JSON line for the table.
 Results and the diagnosis: docs/learners.md, "A first try with a standard PPO".
 """

@@ -1,8 +1,8 @@
-"""The control window's linear model against the nonlinear rigid body (benchmarks/window_vs_nonlinear.py):
+"""The control window's linear model against the nonlinear rigid body (research/window_vs_nonlinear.py):
 in a Gaussian beam it holds at the task's own starts; in the flat-top of the aperture's size it does not
 (the spot's edge on the rim kinks the force at zero offset; docs/physics.md §14).
 
-Measured by the benchmark over seeds 0..23 (RK4 at 0.5 ms): the flat-top's error is 31 % of the amplitude
+Measured by the script over seeds 0..23 (RK4 at 0.5 ms): the flat-top's error is 31 % of the amplitude
 (median; 63 % at most), the Gaussian's 0.70 % at waist 0.8 a (LightSail3DRealistic-v1; 2.6 % at most) and
 0.70 % at waist a (3.1 % at most). The Gaussian's has two parts:
 ~0.4 % at any amplitude (0.37 % at waist a), from the window holding the Doppler power factor at its middle (the factor falls
@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.window_vs_nonlinear import FLAT_TOP_ID, GAUSSIAN_ID, task_kwargs, window_errors, window_starts
+from research.window_vs_nonlinear import FLAT_TOP_ID, GAUSSIAN_ID, task_kwargs, window_errors, window_starts
 
 #: The Gaussian task's seed whose window start is compared (its error is among the larger: 1.6 % at waist
 #: 0.8 a, 2.1 % at a).

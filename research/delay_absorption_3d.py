@@ -1,6 +1,6 @@
 """What light delay and absorption do to active control of the 3D sail (docs/tasks.md, "The 3D tasks").
 
-    python -m benchmarks.delay_absorption_3d [--episodes 200]   # from the repo root
+    python -m research.delay_absorption_3d [--episodes 200]   # from the repo root
 
 Passive, LQR and LQG on LightSail3D-v0 and three variants of it, on the same seeded episodes
 (evaluate.py's episode runner); prints a markdown table of success rates.
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from benchmarks.realistic_ablation import success_rate
+from research.realistic_ablation import success_rate
 
 ENV_ID = "LightSail3D-v0"
 DELAY = {"light_delay": True, "control_start_s": 10.0}

@@ -1,6 +1,6 @@
 """Does ``train.py --resume`` after a kill mid-way give as good a model as an uninterrupted run?
 
-    python benchmarks/resume_quality.py [--algo ppo] [--env LightSail-v0] [--episodes 200]
+    python -m research.resume_quality [--algo ppo] [--env LightSail-v0] [--episodes 200]
 
 Trains the shipped configuration twice with the same seed: once straight through, once
 interrupted with SIGINT (Ctrl-C) as soon as the checkpoint at half the budget is written,
