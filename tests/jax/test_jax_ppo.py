@@ -19,7 +19,7 @@ pytest.importorskip("optax")
 import jax.numpy as jnp  # noqa: E402
 
 import sail_env.jax  # noqa: E402
-from agents.jax_ppo import PPOConfig, _mlp, actor_arrays, make_train  # noqa: E402
+from agents.jax_ppo import PPOConfig, _mlp, actor_arrays, init_network, make_train  # noqa: E402
 from agents.mlp_policy import MlpPolicyAgent, save_policy  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -57,3 +57,21 @@ def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, argv: 
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
     assert not (tmp_path / "runs").exists()
+
+
+def test_evaluate_reports_a_jax_policy_beside_the_baselines(tmp_path: Path) -> None:
+    """``evaluate.py --agent …/policy.npz`` plays the exported actor on the Gym env (no JAX there)."""
+    network = jax.tree.map(np.asarray, init_network(jax.random.key(0), 5, 2, PPOConfig()))
+    run = tmp_path / "runs" / "LightSail-v0-jax_ppo-0"
+    run.mkdir(parents=True)
+    save_policy(run / "policy.npz", actor_arrays(network), {"env_id": "LightSail-v0", "algo": "jax_ppo"})
+    done = subprocess.run([sys.executable, "evaluate.py", "--agent", "passive", "--agent", str(run / "policy.npz"),
+                           "--episodes", "4", "--out", str(tmp_path / "report")], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    report = json.loads((tmp_path / "report" / "report.json").read_text())
+    assert "LightSail-v0-jax_ppo-0" in json.dumps(report)
+    refused = subprocess.run([sys.executable, "evaluate.py", "--env", "LightSailRealistic-v0", "--agent",
+                              str(run / "policy.npz"), "--episodes", "1", "--out", str(tmp_path / "other")], cwd=ROOT,
+                             capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 2 and "observations of size 5" in refused.stderr and refused.stderr.count("\n") == 1
