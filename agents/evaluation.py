@@ -373,6 +373,17 @@ REPORT_FILES = ("report.json", "episodes.csv", "pointing.png", "trajectories.png
                 "report.md")
 
 
+def unused_report_dir(base: Path) -> Path:
+    """The default ``--out``: ``base``, or the first of ``base_2``, ``base_3``, … that holds nothing
+    (as train.py numbers its run folders), so that running the same command again keeps the
+    earlier report. (An explicit ``--out`` that holds one is refused instead.)"""
+    for k in range(1, 10_000):
+        path = base if k == 1 else base.with_name(f"{base.name}_{k}")
+        if not path.exists() or (path.is_dir() and not any(path.iterdir())):
+            return path
+    raise UsageError(f"{base}: no free report folder up to _9999; choose --out")
+
+
 def check_out(out: Path, overwrite: bool) -> None:
     """Refuse now, not after the episodes (:class:`UsageError`): an ``out`` that holds a report
     (unless ``overwrite``) or files of another kind, or where the report cannot be made (it is made
@@ -596,7 +607,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help=f"one of {', '.join(BASELINES)}, a model .zip or a JAX run's policy.npz; repeat to compare")
     parser.add_argument("--episodes", type=int, default=200, help="paired episodes per agent")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses reset(seed=seed + i)")
-    parser.add_argument("--out", type=Path, help="report directory (default: reports/<env>)")
+    parser.add_argument("--out", type=Path, help="report directory (default: reports/<env>, or the first free "
+                                                 "reports/<env>_2, _3, …)")
     parser.add_argument("--overwrite", action="store_true", help="replace the report --out holds (refused otherwise)")
     parser.add_argument("--raw-observations", action="store_true",
                         help="accept models with neither a run.json nor VecNormalize statistics beside them as "
@@ -610,7 +622,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
     if args.seed < 0:
         parser.error(f"--seed must be >= 0, got {args.seed}")
-    args.out = args.out or Path("reports") / args.env
+    args.out = args.out or unused_report_dir(Path("reports") / args.env)
     check_out(args.out, args.overwrite)
     return args
 

@@ -233,6 +233,17 @@ def test_an_earlier_report_is_kept_unless_overwrite(earlier: Path, capsys: pytes
     assert sorted(p.name for p in earlier.parent.iterdir()) == ["earlier"]  # nothing left beside it
 
 
+def test_without_out_the_same_command_again_keeps_the_earlier_report(tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """The default --out numbers its folder as train.py's runs are numbered: the README's command
+    run twice keeps both reports (an explicit --out that holds one is refused instead)."""
+    monkeypatch.chdir(tmp_path)
+    for _ in range(2):
+        assert evaluate.main(["--agent", "passive", "--episodes", "2", "--no-progress-bar"]) == 0
+    assert sorted(p.name for p in (tmp_path / "reports").iterdir()) == ["LightSail-v0", "LightSail-v0_2"]
+    assert _agents_of_report(tmp_path / "reports" / "LightSail-v0_2") == (["passive"],) * 3
+
+
 def test_an_out_holding_other_files_is_refused_even_with_overwrite(tmp_path: Path, capsys: pytest.CaptureFixture,
                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     (tmp_path / "notes.txt").write_text("mine")

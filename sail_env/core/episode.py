@@ -25,7 +25,7 @@ import numpy as np
 from sail_env.core import kernels
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, log_ratio, succeeded
 from sail_env.core.spec import EpisodeSpec
-from sail_env.core.state import EpisodeState, Slot, allocate
+from sail_env.core.state import SIZES, EpisodeState, Slot, allocate
 
 OBSERVATION_LIMIT = kernels.OBSERVATION_LIMIT
 
@@ -77,37 +77,23 @@ class EpisodeCore:
         state_ring = spec.max_delay + 2 if delayed else 1
         delay_length = spec.n_steps + spec.max_delay + 2 if delayed else 0
         power = plant.input_names.index("beam_power") if "beam_power" in plant.input_names else -1
-        for slot, value in ((Slot.ENVS, n), (Slot.STATES, ns), (Slot.INPUTS, m), (Slot.COLUMNS, cols),
-                            (Slot.POWERS, params.step.shape[-2] // ns), (Slot.SPEED_ROWS, len(plant.velocity_rows)),
-                            (Slot.NOISE_STEPS, w), (Slot.JITTERED, jittered), (Slot.IMPACTS, impacts),
-                            (Slot.DELAY_LENGTH, delay_length), (Slot.COMMAND_RING, ring),
-                            (Slot.STATE_RING, state_ring), (Slot.HISTORY, spec.history_length),
-                            (Slot.WINDOW, spec.n_steps), (Slot.PUSHED, pushed), (Slot.SENSED, sensed),
-                            (Slot.POWER_INPUT, power), (Slot.GROUPS, len(groups)),
-                            (Slot.OBSERVATION, spec.observation_size), (Slot.NORMALS, sum(parts)),
-                            (Slot.JITTER_NORMALS, 0), (Slot.PUSH_NORMALS, parts[0]),
-                            (Slot.SENSOR_NORMALS, sum(parts[:2])), (Slot.IMPACT_NORMALS, sum(parts[:3]))):
-            layout[slot] = value
+        sizes = {"ENVS": n, "STATES": ns, "INPUTS": m, "COLUMNS": cols, "POWERS": params.step.shape[-2] // ns,
+                 "SPEED_ROWS": len(plant.velocity_rows), "NOISE_STEPS": w, "JITTERED": jittered,
+                 "JITTER_STEPS": w if jittered else 0, "IMPACTS": impacts, "IMPACT_STEPS": w if impacts else 0,
+                 "DELAY_LENGTH": delay_length, "COMMAND_RING": ring, "STATE_RING": state_ring,
+                 "HISTORY": spec.history_length, "WINDOW": spec.n_steps, "PUSHED": pushed, "SENSED": sensed,
+                 "POWER_INPUT": power, "GROUPS": len(groups), "OBSERVATION": spec.observation_size,
+                 "NORMALS": sum(parts), "JITTER_NORMALS": 0, "PUSH_NORMALS": parts[0],
+                 "SENSOR_NORMALS": sum(parts[:2]), "IMPACT_NORMALS": sum(parts[:3])}
+        assert sizes.keys() == SIZES.keys(), "every size of the layout is set here"
+        for name, value in sizes.items():
+            layout[Slot[name]] = value
         tables = [*(plant.jitter_inputs if jittered else ()), *plant.impulse_rows]
         for group in groups:
             tables += [group[0], group[1] if len(group) > 1 else -1]
         layout[int(Slot.TABLES):] = tables
-        floats, ints, views = allocate(n, layout, {
-            Slot.X: (ns,), Slot.LAST_COMMAND: (m,), Slot.APPLIED: (m,), Slot.CUTOFF: (), Slot.SPEED_AT_CUTOFF: (),
-            Slot.REWARD: (), Slot.ENVELOPE: (), Slot.COMMANDS: (ring, m), Slot.STATE_HISTORY: (state_ring, ns),
-            Slot.NORMAL_BLOCK: (sum(parts),), Slot.JITTER_STD: (w if jittered else 0,),
-            Slot.IMPACT_COUNTS: (w if impacts else 0,), Slot.IMPACT_STD: (impacts,)},
-            {Slot.STEP: (), Slot.FINISHED: (), Slot.TERMINATED: (), Slot.DIVERGED: (), Slot.LAG0: (),
-             Slot.DELAY: (delay_length,)})
-        self.state = EpisodeState(
-            x=views[Slot.X], step=views[Slot.STEP], last_command=views[Slot.LAST_COMMAND],
-            applied=views[Slot.APPLIED], finished=views[Slot.FINISHED], terminated=views[Slot.TERMINATED],
-            diverged=views[Slot.DIVERGED], reward=views[Slot.REWARD], envelope=views[Slot.ENVELOPE],
-            cutoff_s=views[Slot.CUTOFF], speed_at_cutoff=views[Slot.SPEED_AT_CUTOFF], lag0=views[Slot.LAG0],
-            delay=views[Slot.DELAY], commands=views[Slot.COMMANDS], states=views[Slot.STATE_HISTORY],
-            normals=views[Slot.NORMAL_BLOCK], jitter_std=views[Slot.JITTER_STD],
-            impact_counts=views[Slot.IMPACT_COUNTS], impact_std=views[Slot.IMPACT_STD], params=params,
-            rngs=[None] * n, floats=floats, ints=ints, layout=layout)
+        floats, ints, views = allocate(layout)
+        self.state = EpisodeState(**views, params=params, rngs=[None] * n, floats=floats, ints=ints, layout=layout)
         self.state.finished[:] = 1
         self.state.cutoff_s[:] = spec.config.beam_cutoff_s
         self.state.speed_at_cutoff[:] = plant.speed(params, self.state.cutoff_s)
@@ -115,6 +101,16 @@ class EpisodeCore:
         self._set_tables(self._transposed(params.envelope))
         self._rows = np.arange(n)
         self._jittered, self._impacts, self._pushed, self._sensed = jittered, impacts, pushed, sensed
+
+    def __getstate__(self) -> dict[str, object]:
+        """What a copy or a pickle keeps: not the step's views of the tables nor the scratch, which
+        :meth:`__setstate__` makes again over the copied tables (the state rebuilds its own views)."""
+        return {name: value for name, value in self.__dict__.items()
+                if name not in ("_step_tables", "_step_model", "_block", "_pad")}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._set_tables(self.envelope_tables)
 
     def _set_tables(self, tables: np.ndarray) -> None:
         """Keep the look-ahead tables (K, R·c, S) and the step's views of them and of the plant's
@@ -221,6 +217,8 @@ class EpisodeCore:
         (N, D) float32, the rest into :attr:`state`. Returns how many episodes terminated; the caller
         then scores them (:meth:`score`). What the single env's hot path calls."""
         state = self.state
+        if action.dtype.char in "eg":  # float16, longdouble: the kernels take the other real dtypes
+            action = action.astype(np.float64)
         ended = kernels.step(action, out, state.floats, state.ints, state.layout, self.consts, self._step_model,
                              self._step_tables, state.params.limits, self._block, self._pad)
         if ended < 0:

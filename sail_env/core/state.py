@@ -11,6 +11,12 @@ at N ≤ 1024 on this machine; it keeps an environment's data together for a per
 argument, and a step at N = 1 is a few microseconds. A GPU backend would take the same buffers and
 run one thread per environment (the kernels' outer loop); none is built here.
 
+The fields are declared once, as plain data (:data:`FIELDS`: name, dtype, shape in the layout's
+sizes of :data:`SIZES`, the layout entry of the offset): :class:`Slot`, :class:`EpisodeState`, the
+buffers' records and the views follow from it, and a backend of other arrays (a JAX pytree) can read it
+too. A new field is one :class:`Field` (and a size in :data:`SIZES` if it needs a new one, set in
+:class:`~sail_env.core.episode.EpisodeCore`).
+
 Envs, the vector env and the agents read the state only through the fields documented on
 :class:`EpisodeState`.
 """
@@ -19,140 +25,162 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 
 import numpy as np
 
 from sail_env.physics.linear_plant import PlantParams
 
-
-class Slot(enum.IntEnum):
-    """Entries of the ``layout`` array: sizes, switches, then the fields' offsets in their buffer."""
-
-    ENVS = 0  # N
-    STATES = 1  # n
-    INPUTS = 2  # m
-    COLUMNS = 3  # columns of the plant's step matrix: n + m (+ 1 with a constant term)
-    POWERS = 4  # rows of the step matrix / n: the push expansion's powers of ε
-    SPEED_ROWS = 5  # velocity rows of the envelope table (1 planar, 2 in 3D)
-    NOISE_STEPS = 6  # W: steps a window's per-step noise can reach (pre-control to the last arrival)
-    JITTERED = 7  # inputs the beam jitter moves (J), 0 without jitter
-    IMPACTS = 8  # rows random impacts kick (I), 0 without impacts
-    DELAY_LENGTH = 9  # columns of the delay table (0 without light delay)
-    COMMAND_RING = 10
-    STATE_RING = 11
-    HISTORY = 12  # commands shown in the observation
-    WINDOW = 13  # control steps in the window
-    PUSHED = 14  # 1 with per-step push noise
-    SENSED = 15  # 1 with sensor noise
-    POWER_INPUT = 16  # the input that scales the push (3D power control), -1 without
-    GROUPS = 17  # divergence groups (each at most two rows; Plant.divergence_groups)
-    OBSERVATION = 18  # D
-    NORMALS = 19  # standard normals per environment (the row of EpisodeState.normals)
-    # Offsets of the normals' parts in a row of EpisodeState.normals.
-    JITTER_NORMALS = 20
-    PUSH_NORMALS = 21
-    SENSOR_NORMALS = 22
-    IMPACT_NORMALS = 23
-    # Offsets of the float fields in the float buffer.
-    X = 24
-    LAST_COMMAND = 25
-    APPLIED = 26
-    CUTOFF = 27
-    SPEED_AT_CUTOFF = 28
-    REWARD = 29
-    ENVELOPE = 30
-    COMMANDS = 31
-    STATE_HISTORY = 32
-    NORMAL_BLOCK = 33
-    JITTER_STD = 34
-    IMPACT_COUNTS = 35
-    IMPACT_STD = 36
-    # Offsets of the integer fields in the integer buffer.
-    STEP = 37
-    FINISHED = 38
-    TERMINATED = 39
-    DIVERGED = 40
-    LAG0 = 41
-    DELAY = 42
-    # The length of one environment's record in each buffer.
-    FLOAT_RECORD = 43
-    INT_RECORD = 44
-    # Then: the jitter's inputs (J), the impacts' rows (I), the divergence groups (2 per group, -1 pads).
-    TABLES = 45
+#: The layout's first entries, by name: the sizes and switches of one task's episodes (set by
+#: :class:`~sail_env.core.episode.EpisodeCore`), in :data:`FIELDS`' shapes and the kernels' loops.
+SIZES: dict[str, str] = {
+    "ENVS": "N",
+    "STATES": "n",
+    "INPUTS": "m",
+    "COLUMNS": "columns of the plant's step matrix: n + m (+ 1 with a constant term)",
+    "POWERS": "rows of the step matrix / n: the push expansion's powers of ε",
+    "SPEED_ROWS": "velocity rows of the envelope table (1 planar, 2 in 3D)",
+    "NOISE_STEPS": "W: steps a window's per-step noise can reach (pre-control to the last arrival)",
+    "JITTERED": "inputs the beam jitter moves (J), 0 without jitter",
+    "JITTER_STEPS": "W with beam jitter, else 0",
+    "IMPACTS": "rows random impacts kick (I), 0 without impacts",
+    "IMPACT_STEPS": "W with random impacts, else 0",
+    "DELAY_LENGTH": "T: columns of the delay table (0 without light delay)",
+    "COMMAND_RING": "C: sent commands kept",
+    "STATE_RING": "S: true states kept",
+    "HISTORY": "commands shown in the observation",
+    "WINDOW": "control steps in the window",
+    "PUSHED": "1 with per-step push noise",
+    "SENSED": "1 with sensor noise",
+    "POWER_INPUT": "the input that scales the push (3D power control), -1 without",
+    "GROUPS": "divergence groups (each at most two rows; Plant.divergence_groups)",
+    "OBSERVATION": "D",
+    "NORMALS": "K: standard normals per environment (a row of EpisodeState.normals)",
+    "JITTER_NORMALS": "offset of the beam jitter's normals in a row of EpisodeState.normals",
+    "PUSH_NORMALS": "offset of the push noise's normals there",
+    "SENSOR_NORMALS": "offset of the sensor noise's normals there",
+    "IMPACT_NORMALS": "offset of the impacts' normals there",
+}
 
 
-@dataclasses.dataclass
-class EpisodeState:
-    """The state of N episodes (every array leads with N; SI units).
+@dataclasses.dataclass(frozen=True)
+class Field:
+    """One array of the episode state: per environment, ``shape`` (names of :data:`SIZES`) of
+    ``dtype`` (``"float64"`` or ``"int64"``: which buffer holds it), at the offset in its environment's
+    record that the layout entry ``offset`` holds (the kernels' name for it)."""
+
+    name: str
+    dtype: str
+    shape: tuple[str, ...]
+    offset: str
+    doc: str
+
+
+#: The episode state's arrays, each buffer's in the order of its record.
+FIELDS: tuple[Field, ...] = (
+    Field("x", "float64", ("STATES",), "X", "the true state"),
+    Field("last_command", "float64", ("INPUTS",), "LAST_COMMAND",
+          "the command sent at the last step (held over the coast)"),
+    Field("applied", "float64", ("INPUTS",), "APPLIED",
+          "the beam input that acted during the last step (the newest arrived command)"),
+    Field("cutoff_s", "float64", (), "CUTOFF", "the beam cut-off time of the episode"),
+    Field("speed_at_cutoff", "float64", (), "SPEED_AT_CUTOFF",
+          "the axial speed at cut-off (divides the lateral speed in the envelope)"),
+    Field("reward", "float64", (), "REWARD", "the last step's reward"),
+    Field("envelope", "float64", (), "ENVELOPE",
+          "the last step's envelope (largest ``|V⊥|/Vz`` with the applied input held)"),
+    Field("commands", "float64", ("COMMAND_RING", "INPUTS"), "COMMANDS",
+          "ring of the sent commands (the command of step ``s`` at ``s % C``)"),
+    Field("states", "float64", ("STATE_RING", "STATES"), "STATE_HISTORY",
+          "ring of true states, the state after step ``s`` at ``(s + lag0) % S`` (the delayed observation's source)"),
+    Field("normals", "float64", ("NORMALS",), "NORMAL_BLOCK",
+          "the window's standard normals drawn at reset, in order: beam jitter (W, J), push (W), sensor "
+          "(window + 1, n), impacts (W, I); W noise steps, indexed by the step plus ``lag0`` (pre-control steps first)"),
+    Field("jitter_std", "float64", ("JITTER_STEPS",), "JITTER_STD",
+          "the beam jitter's standard deviation at each noise step [m]"),
+    Field("impact_counts", "float64", ("IMPACT_STEPS",), "IMPACT_COUNTS", "the impacts' Poisson count per noise step"),
+    Field("impact_std", "float64", ("IMPACTS",), "IMPACT_STD",
+          "the standard deviation of one impact's kick on each impulse row"),
+    Field("step", "int64", (), "STEP", "control steps taken in the current window"),
+    Field("finished", "int64", (), "FINISHED", "1 once the episode has terminated (a new one starts at reset)"),
+    Field("terminated", "int64", (), "TERMINATED", "1 if the last step ended the episode"),
+    Field("diverged", "int64", (), "DIVERGED", "1 if the last step left the beam"),
+    Field("lag0", "int64", (), "LAG0", "one-way delay [steps] at the start of control (zero without light delay)"),
+    Field("delay", "int64", ("DELAY_LENGTH",), "DELAY", "the one-way delay at each step"),
+)
+_DTYPES = ("float64", "int64")  # the buffers, ``floats`` and ``ints``
+
+#: Entries of the ``layout`` array: :data:`SIZES`, the fields' offsets in their record (:data:`FIELDS`),
+#: each buffer's record length, then ``TABLES``: the jitter's inputs (J), the impacts' rows (I), the
+#: divergence groups (2 per group, -1 pads).
+Slot = enum.IntEnum("Slot", [*SIZES, *(f.offset for dtype in _DTYPES for f in FIELDS if f.dtype == dtype),
+                             "FLOAT_RECORD", "INT_RECORD", "TABLES"], start=0, module=__name__)
+_RECORDS = {"float64": Slot.FLOAT_RECORD, "int64": Slot.INT_RECORD}
+
+
+def _state_doc() -> str:
+    fields = "\n".join(f"        {f.name}: ({', '.join(('N', *f.shape))}{'' if f.shape else ','}) {f.doc}."
+                       for f in FIELDS)
+    return f"""The state of N episodes (every array leads with N; SI units; the sizes' names are :data:`SIZES`).
 
     Attributes:
-        x: (N, n) the true state.
-        step: (N,) control steps taken in the current window.
-        last_command: (N, m) the command sent at the last step (held over the coast).
-        applied: (N, m) the beam input that acted during the last step (the newest arrived command).
-        finished: (N,) 1 once the episode has terminated (a new one starts at reset).
-        terminated, diverged: (N,) 1 if the last step ended the episode / left the beam.
-        reward, envelope: (N,) the last step's reward and envelope (largest ``|V⊥|/Vz`` with the
-            applied input held).
-        cutoff_s: (N,) the beam cut-off time of the episode.
-        speed_at_cutoff: (N,) the axial speed at cut-off (divides the lateral speed in the envelope).
-        lag0: (N,) one-way delay [steps] at the start of control (zero without light delay).
-        delay: (N, T) the one-way delay at each step (T = 0 without light delay).
-        commands: (N, C, m) ring of the sent commands (the command of step ``s`` at ``s % C``).
-        states: (N, S, n) ring of true states, the state after step ``s`` at ``(s + lag0) % S`` (the
-            delayed observation's source).
-        normals: (N, K) the window's standard normals drawn at reset, in order: beam jitter (W, J),
-            push (W), sensor (window + 1, n), impacts (W, I); W noise steps, indexed by the step
-            plus ``lag0`` (pre-control steps first).
-        jitter_std: (N, W) the beam jitter's standard deviation at each noise step [m].
-        impact_counts, impact_std: (N, W) the impacts' Poisson count per noise step; (N, I) the
-            standard deviation of one impact's kick on each impulse row.
+{fields}
         params: the plant's :class:`~sail_env.physics.linear_plant.PlantParams` (leading axis N, or 1 when shared).
         rngs: each environment's generator (None before its first reset).
+        floats, ints: the buffers the fields view (what the kernels take).
+        layout: the :class:`Slot` entries, then the tables.
     """
 
-    x: np.ndarray
-    step: np.ndarray
-    last_command: np.ndarray
-    applied: np.ndarray
-    finished: np.ndarray
-    terminated: np.ndarray
-    diverged: np.ndarray
-    reward: np.ndarray
-    envelope: np.ndarray
-    cutoff_s: np.ndarray
-    speed_at_cutoff: np.ndarray
-    lag0: np.ndarray
-    delay: np.ndarray
-    commands: np.ndarray
-    states: np.ndarray
-    normals: np.ndarray
-    jitter_std: np.ndarray
-    impact_counts: np.ndarray
-    impact_std: np.ndarray
-    params: PlantParams
-    rngs: list[np.random.Generator | None]
-    floats: np.ndarray  # the float buffer the float fields view (what the kernels take)
-    ints: np.ndarray  # the integer buffer
-    layout: np.ndarray  # Slot entries, then the tables
+
+def _getstate(self: EpisodeState) -> dict[str, object]:
+    """What a copy or a pickle keeps: the buffers, not the fields (a copy of a view is an array of its
+    own: the kernels would write the copied buffers, the fields not)."""
+    return {name: value for name, value in self.__dict__.items() if name not in {f.name for f in FIELDS}}
 
 
-def allocate(envs: int, layout: np.ndarray, float_shapes: dict[Slot, tuple[int, ...]],
-             int_shapes: dict[Slot, tuple[int, ...]]) -> tuple[np.ndarray, np.ndarray, dict[Slot, np.ndarray]]:
-    """Both flat buffers (one record per environment) and a view (envs, *shape) of each field;
-    ``layout`` receives the fields' offsets within a record and the records' lengths."""
-    views: dict[Slot, np.ndarray] = {}
+def _setstate(self: EpisodeState, state: dict[str, object]) -> None:
+    """The fields again as views into the copied buffers (:func:`_getstate`)."""
+    self.__dict__.update(state)
+    self.__dict__.update(field_views(self.floats, self.ints, self.layout))
+
+
+#: The episode state: a view of its buffers for each of :data:`FIELDS`, and the rest.
+EpisodeState = dataclasses.make_dataclass(
+    "EpisodeState", [*((f.name, np.ndarray) for f in FIELDS), ("params", PlantParams),
+                     ("rngs", "list[np.random.Generator | None]"), ("floats", np.ndarray), ("ints", np.ndarray),
+                     ("layout", np.ndarray)],
+    namespace={"__doc__": _state_doc(), "__getstate__": _getstate, "__setstate__": _setstate,
+               "__module__": __name__})
+
+
+def field_shape(field: Field, layout: np.ndarray) -> tuple[int, ...]:
+    """The shape of ``field`` per environment in the task of ``layout``."""
+    return tuple(int(layout[Slot[size]]) for size in field.shape)
+
+
+def allocate(layout: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Both flat buffers (one record per environment, zeros) and a view (N, *shape) of each field, by
+    name, for the sizes in ``layout``; ``layout`` receives the fields' offsets within a record and the
+    records' lengths."""
     buffers = []
-    for shapes, dtype, record in ((float_shapes, np.float64, Slot.FLOAT_RECORD), (int_shapes, np.int64, Slot.INT_RECORD)):
-        sizes = {slot: int(np.prod(shape)) for slot, shape in shapes.items()}
-        layout[record] = length = sum(sizes.values())
-        table = np.zeros((envs, length), dtype=dtype)
+    for dtype in _DTYPES:
         offset = 0
-        for slot, shape in shapes.items():
-            layout[slot] = offset
-            view = table[:, offset:offset + sizes[slot]].reshape((envs, *shape))
-            assert view.base is not None and np.shares_memory(view, table) or not view.size
-            views[slot] = view
-            offset += sizes[slot]
-        buffers.append(table.reshape(-1))
-    return buffers[0], buffers[1], views
+        for field in (f for f in FIELDS if f.dtype == dtype):
+            layout[Slot[field.offset]] = offset
+            offset += math.prod(field_shape(field, layout))
+        layout[_RECORDS[dtype]] = offset
+        buffers.append(np.zeros(int(layout[Slot.ENVS]) * offset, dtype=dtype))
+    return buffers[0], buffers[1], field_views(buffers[0], buffers[1], layout)
+
+
+def field_views(floats: np.ndarray, ints: np.ndarray, layout: np.ndarray) -> dict[str, np.ndarray]:
+    """Each field, by name, as a view (N, *shape) into its buffer at the offsets of ``layout``."""
+    envs, views = int(layout[Slot.ENVS]), {}
+    tables = {dtype: buffer.reshape(envs, int(layout[_RECORDS[dtype]]))
+              for dtype, buffer in zip(_DTYPES, (floats, ints))}
+    for field in FIELDS:
+        start, size = int(layout[Slot[field.offset]]), field_shape(field, layout)
+        view = tables[field.dtype][:, start:start + math.prod(size)].reshape((envs, *size))
+        assert not view.size or np.shares_memory(view, tables[field.dtype]), field.name  # a view, not a copy
+        views[field.name] = view
+    return views

@@ -14,7 +14,7 @@ from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import EpisodeSpec, task_spec
 from sail_env.core.state import EpisodeState
 from sail_env.envs.options import reset_seeds, reset_states
-from sail_env.envs.rendering import SailRenderer
+from sail_env.envs.rendering import SailRenderer, axis_views
 from sail_env.physics.config import PRESETS, SailConfig
 from sail_env.physics.planar_plant import PlanarPlant
 
@@ -127,7 +127,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     | ``max_beam_tilt_rad`` | 0.002 | beam tilt at action +1 |
     | ``start_half_widths`` | see above | uniform start half-widths ``(X, Vx, θ, ω)`` |
     | ``sensor_noise_std``, ``beam_jitter_m``, ``push_noise``, ``cutoff_jitter_s``, ``light_delay``, ``parameter_spread`` | off | see :class:`Disturbances` |
-    | ``render_mode`` | None | ``"rgb_array"`` or ``"human"`` |
+    | ``render_mode`` | None | ``"rgb_array"``; ``gym.make(..., render_mode="human")`` shows its frames in a window through Gymnasium's ``HumanRendering`` (needs pygame) |
 
     ``info["state"]`` holds the true state in SI (``x``, ``vx``, ``theta``, ``omega``) and
     ``info["t"]`` the flight time, at every step.
@@ -148,7 +148,9 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     * v0 (lightsail-gym 0.1.0): initial release.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+    # No window of its own: gym.make(..., render_mode="human") wraps the rgb_array frames in Gymnasium's
+    # HumanRendering, where pygame and a display are (a matplotlib window showed nothing on a machine without one).
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, config: SailConfig | str = "seed", render_mode: str | None = None, **keywords: Any) -> None:
         self._start(planar_spec(config, **keywords), render_mode)
@@ -178,8 +180,10 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def reset(self, *, seed: int | None = None,
               options: Mapping[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=reset_seeds(seed, 1)[0])
-        self.core.reset(_ONE, [self.np_random], reset_states(options, self.episode_spec, 1, arrays=False))
+        # Both arguments checked before anything changes: a refused reset leaves the env as it was.
+        seeds, given = reset_seeds(seed, 1), reset_states(options, self.episode_spec, 1, arrays=False)
+        super().reset(seed=seeds[0])
+        self.core.reset(_ONE, [self.np_random], given)
         if self.render_mode is not None:
             self._trajectory = [(self._time(), self.state.x[0].copy(), np.zeros(self.episode_spec.plant.n_inputs))]
         return self.core.observe()[0], self._info()
@@ -211,22 +215,18 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
             info["envelope_rad"] = state.envelope.item(0)
         if self.render_mode is not None:
             self._trajectory.append((info["t"], state.x[0].copy(), state.applied[0].copy()))
-            if self.render_mode == "human":
-                self.render()
         return obs[0], state.reward.item(0), ended > 0, False, info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; set render_mode='rgb_array' or 'human'")
+            gym.logger.warn("render() called without a render_mode; set render_mode='rgb_array'")
             return None
         if self._renderer is None:
-            self._renderer = SailRenderer(self.render_mode, self.metadata["render_fps"])
+            self._renderer = SailRenderer(len(axis_views(self.episode_spec)))
         return self._renderer.draw(self.episode_spec, self._trajectory, float(self.state.speed_at_cutoff[0]))
 
     def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self._renderer = None
 
     @property
     def dt(self) -> float:

@@ -1,5 +1,6 @@
-"""Frames of an episode: the sail on its beam, and the flight direction so far (a 3D sail is drawn
-along its x axis: its offset x, the tilt θy that moves it, the beam inputs on x)."""
+"""Frames of an episode: the sail on its beam, and the flight direction so far. A 3D sail is drawn
+in both lateral planes side by side: x–z (its offset x, the tilt θy that moves it, the beam inputs on
+x) and y–z (y, θx, whose positive sense tilts the sail towards −y, the beam inputs on y)."""
 
 from __future__ import annotations
 
@@ -8,42 +9,39 @@ import numpy as np
 from sail_env.core.spec import EpisodeSpec
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
+#: A frame with one sail panel (the planar model's); each further one (the 3D model's y–z plane) widens it.
 FRAME_SIZE_IN = (8.0, 4.0)
+SAIL_PANEL_WIDTH_IN = 2.0
 FRAME_DPI = 80
 
 
 class SailRenderer:
-    """Draws with matplotlib; ``rgb_array`` frames are off-screen (Agg), ``human`` opens a window."""
+    """Draws off-screen with matplotlib (Agg): ``rgb_array`` frames. The env has no window of its own:
+    ``gym.make(..., render_mode="human")`` shows these frames through Gymnasium's ``HumanRendering``
+    wrapper (pygame), as for any env that declares ``rgb_array`` only."""
 
-    def __init__(self, render_mode: str, fps: int) -> None:
-        import matplotlib
+    def __init__(self, sail_panels: int = 1) -> None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
 
-        if render_mode == "rgb_array":
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-            from matplotlib.figure import Figure
-
-            self.figure = Figure(figsize=FRAME_SIZE_IN, dpi=FRAME_DPI)
-            FigureCanvasAgg(self.figure)
-        else:
-            import matplotlib.pyplot as plt
-
-            matplotlib.interactive(True)
-            self.figure = plt.figure(figsize=FRAME_SIZE_IN, dpi=FRAME_DPI)
-        self.render_mode = render_mode
-        self.pause_s = 1.0 / fps
+        self.figure = Figure(figsize=(FRAME_SIZE_IN[0] + (sail_panels - 1) * SAIL_PANEL_WIDTH_IN, FRAME_SIZE_IN[1]),
+                             dpi=FRAME_DPI)
+        FigureCanvasAgg(self.figure)
 
     def draw(self, spec: EpisodeSpec, trajectory: list[tuple[float, np.ndarray, np.ndarray]],
-             speed_at_cutoff: float) -> np.ndarray | None:
-        """A frame: the sail now (left) and its flight direction if the beam were cut, over the
-        control window so far (right). ``trajectory`` holds ``(t, state, applied input)`` per step."""
-        view = AxisView(spec)
+             speed_at_cutoff: float) -> np.ndarray:
+        """A frame: the sail now, in each lateral plane (left), and its flight direction if the beam were
+        cut, over the control window so far (right). ``trajectory`` holds ``(t, state, applied input)``
+        per step."""
+        views = axis_views(spec)
         fig = self.figure
         fig.clear()
-        sail_ax, track_ax = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1.4]})
+        *sail_axes, track_ax = fig.subplots(1, len(views) + 1, gridspec_kw={"width_ratios": [1] * len(views) + [1.4]})
         t, state, beam_input = trajectory[-1]
-        self._draw_sail(sail_ax, view, state, beam_input)
+        for ax, view in zip(sail_axes, views):
+            self._draw_sail(ax, view, state, beam_input)
         times = np.array([p[0] for p in trajectory])
-        pointing = np.array([np.hypot.reduce(p[1][view.velocities]) for p in trajectory]) / speed_at_cutoff
+        pointing = np.array([np.hypot.reduce(p[1][views[0].velocities]) for p in trajectory]) / speed_at_cutoff
         track_ax.semilogy(times, np.maximum(pointing, 1e-13), lw=1, marker="o", markevery=[-1], ms=3,
                           label="|V⊥|/Vz")
         track_ax.axhline(POINTING_TOLERANCE_RAD, color="tab:red", ls="--", lw=1, label="10 nrad")
@@ -53,16 +51,10 @@ class SailRenderer:
         track_ax.set_ylabel("flight direction if cut now [rad]")
         track_ax.set_ylim(1e-12, 1e-5)
         track_ax.legend(loc="upper right", fontsize=8)
-        track_ax.set_title(f"t = {t:.3f} s,  {view.x_name} = {state[view.x] * 1e3:+.2f} mm,  "
-                           f"{view.tilt_name} = {state[view.tilt] * 1e3:+.3f} mrad,  "
-                           f"{view.rate_name} = {state[view.rate]:+.1e} rad/s", fontsize=8)
+        rates = ",  ".join(f"{view.rate_name} = {state[view.rate]:+.1e}" for view in views)
+        track_ax.set_title(f"t = {t:.3f} s,  {rates} rad/s", fontsize=8)
         fig.tight_layout()
         fig.canvas.draw()
-        if self.render_mode == "human":
-            import matplotlib.pyplot as plt
-
-            plt.pause(self.pause_s)
-            return None
         return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
 
     @staticmethod
@@ -72,7 +64,7 @@ class SailRenderer:
         a, lc, strut, r = view.aperture_m, view.com_distance_m, view.strut_length_m, view.curvature_radius_m
         exaggerate_x = 0.25 * a / max(2e-2, abs(state[view.x]), view.offset_scale)
         exaggerate_theta = 0.2 / max(2e-3, abs(state[view.tilt]), view.tilt_scale)
-        x0, theta = state[view.x] * exaggerate_x, state[view.tilt] * exaggerate_theta
+        x0, theta = state[view.x] * exaggerate_x, view.tilt_sign * state[view.tilt] * exaggerate_theta
         axis = np.array([np.sin(theta), np.cos(theta)])  # (lateral, along the beam)
         side = np.array([np.cos(theta), -np.sin(theta)])
         com = np.array([x0, 0.0])
@@ -93,34 +85,41 @@ class SailRenderer:
         ax.set_xlim(-reach, reach)
         ax.set_ylim(-(strut - lc) - 2, lc + 2)
         ax.set_aspect("equal")
-        ax.set_title(f"sail on its beam{view.axis_note} (lateral motion exaggerated)", fontsize=8)
+        # Short lines: the panels are narrow, and a title wider than its panel ran into the next one's.
+        ax.set_title(f"{view.plane} (exaggerated)\n{view.x_name} = {state[view.x] * 1e3:+.2f} mm\n"
+                     f"{view.tilt_name} = {state[view.tilt] * 1e3:+.3f} mrad", fontsize=8)
         ax.set_xticks([])
         ax.set_yticks([])
 
-    def close(self) -> None:
-        if self.render_mode == "human":
-            import matplotlib.pyplot as plt
-
-            plt.close(self.figure)
-
 
 class AxisView:
-    """What a frame draws of a task's sail: its geometry and, by name, the state's and inputs' entries
-    on one lateral axis (the planar model's, or the 3D model's x axis)."""
+    """What a sail panel draws of a task's sail: its geometry and, by name, the state's and inputs' entries
+    on one lateral axis (the planar model's, or the 3D model's ``"x"`` or ``"y"``)."""
 
-    def __init__(self, spec: EpisodeSpec) -> None:
+    def __init__(self, spec: EpisodeSpec, axis: str = "x") -> None:
         plant, config = spec.plant, spec.config
         sail = getattr(config, "sail", config)  # a RigidTaskConfig's RigidSailConfig, or the SailConfig
         self.aperture_m, self.com_distance_m = sail.aperture_radius_m, sail.com_distance_m
         self.strut_length_m = sail.strut_length_m
         self.curvature_radius_m = np.inf if getattr(sail, "shape", "dish") == "flat" else sail.curvature_radius_m
         names, inputs = plant.state_names, plant.input_names
-        three_d = "theta_y" in names
-        self.axis_note = " (x axis)" if three_d else ""
-        self.x_name, self.tilt_name, self.rate_name = ("x", "θy", "ωy") if three_d else ("X", "θ", "ω")
-        self.x = names.index("x")
-        self.tilt, self.rate = names.index("theta_y" if three_d else "theta"), names.index("omega_y" if three_d else "omega")
         self.velocities = [names.index(n) for n in ("vx", "vy") if n in names]
-        self.offset = inputs.index("beam_offset_x" if three_d else "beam_offset")
-        tilt_input = inputs.index("beam_tilt_x" if three_d else "beam_tilt")
+        if "theta_y" in names:
+            # x moves with θy; y with −θx (the 3D model's ``dvy/dt = −(F/m) θx``): drawn in the y–z plane
+            # with that sign, so that the sail leans the way it pushes itself.
+            about = "y" if axis == "x" else "x"
+            self.plane, self.x_name, self.tilt_name, self.rate_name = f"{axis}–z plane", axis, f"θ{about}", f"ω{about}"
+            self.x, self.tilt, self.rate = names.index(axis), names.index(f"theta_{about}"), names.index(f"omega_{about}")
+            self.tilt_sign = 1.0 if axis == "x" else -1.0
+            self.offset, tilt_input = inputs.index(f"beam_offset_{axis}"), inputs.index(f"beam_tilt_{axis}")
+        else:
+            self.plane, self.x_name, self.tilt_name, self.rate_name = "sail on its beam", "X", "θ", "ω"
+            self.x, self.tilt, self.rate = names.index("x"), names.index("theta"), names.index("omega")
+            self.tilt_sign = 1.0
+            self.offset, tilt_input = inputs.index("beam_offset"), inputs.index("beam_tilt")
         self.offset_scale, self.tilt_scale = spec.action_scale[self.offset], spec.action_scale[tilt_input]
+
+
+def axis_views(spec: EpisodeSpec) -> list[AxisView]:
+    """The sail panels of a frame: the planar model's one axis, or the 3D model's x and y."""
+    return [AxisView(spec, axis) for axis in (("x", "y") if "theta_y" in spec.plant.state_names else ("x",))]

@@ -167,7 +167,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``start_half_widths`` | see above | 8 half-widths in state order | the box's corner inside the start limits (``√(x² + y²) ≤ a`` and so on) |
     | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power | ``[0, 0.5)`` |
-    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v1``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``≥ 0`` |
+    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v1``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``[0, a]``: a constant offset beyond the rim centres the spot off the sail |
 
     Numbers may be ints, floats or NumPy real scalars; bools (except for the bool keywords and
     ``power_control``), strings and arrays are refused, each with one ``ValueError`` naming the keyword
@@ -233,8 +233,6 @@ class LightSail3DEnv(LightSailEnv):
       the same seed, from the same distribution; noise-free episodes are unchanged.
     * v0 (lightsail-gym 0.1.0): initial release.
     """
-
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         self._start(rigid3d_spec(**kwargs), render_mode)

@@ -82,11 +82,12 @@ class LightSailVectorEnv(VectorEnv):
         ``options={"initial_state": {...}}`` starts every environment from that state
         (``LightSailEnv``'s keys), ``{"initial_state": array (N, n)}`` each from its row.
         """
+        # Both arguments checked before anything changes: a refused reset leaves the envs as they were.
         seeds = reset_seeds(seed, self.num_envs)
+        given = reset_states(options, self.episode_spec, self.num_envs, arrays=True)
         super().reset(seed=seeds[0])
         if self._rngs is None or seed is not None:
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        given = reset_states(options, self.episode_spec, self.num_envs, arrays=True)
         self.core.reset(self._all, self._rngs, given)
         return self.core.observe(), {"state": self.state.x.copy(), "t": self._times()}
 

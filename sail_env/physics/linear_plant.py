@@ -320,19 +320,38 @@ class LinearPlant:
             propagators = self._piece_propagators(p, u, start_s[:, None] + offsets * piece[:, None], piece)
             for j in range(count):
                 propagator = propagators[j if self.time_varying else 0]
+                active = (first + j < pieces) & ~diverged
                 if self.noisy:
-                    start = second_moment(x, np.zeros((len(x), self.n_states, self.n_states)))
-                    # matmul, not einsum: the same BLAS call per environment whatever the batch's size
-                    # and layout, so a batch plays the single environments' episodes to the last bit.
-                    mean, cov = mean_and_covariance((propagator @ start[:, :, None])[:, :, 0])
-                    moved = sample_gaussian(mean, cov, normals[:, first + j])
+                    moved = self._sample_piece(propagator, x, active, normals[:, first + j])
                 else:
                     phi, drive = propagator
                     moved = np.einsum("...ij,...j->...i", phi, x) + drive
-                active = (first + j < pieces) & ~diverged
                 x = np.where(active[:, None], moved, x)
                 diverged |= active & self.diverged(p, x)
         return x, diverged
+
+    def _sample_piece(self, propagator: np.ndarray, x: np.ndarray, active: np.ndarray,
+                      normals: np.ndarray) -> np.ndarray:
+        """The states (k, n) after one noisy piece with second-moment propagators (k, h, h): drawn from
+        the exact moments for the ``active`` rows, ``x`` elsewhere.
+
+        Only the active rows are propagated: a sail caught diverging keeps the state it was caught
+        at, and carried on it overflowed within a piece or two (its second moments grow as the
+        square of the state). Where an active sail's moments overflow all the same (a model whose
+        growth along the flight outruns the pieces, :meth:`coast_pieces`), its state is NaN: it
+        has left the beam (:meth:`diverged`), and no eigensolver is handed an infinite covariance.
+        """
+        rows = np.flatnonzero(active)
+        moved = x.copy()
+        start = second_moment(x[rows], np.zeros((len(rows), self.n_states, self.n_states)))
+        with np.errstate(over="ignore", invalid="ignore"):
+            # matmul, not einsum: the same BLAS call per environment whatever the batch's size
+            # and layout, so a batch plays the single environments' episodes to the last bit.
+            mean, cov = mean_and_covariance((propagator[rows] @ start[:, :, None])[:, :, 0])
+        finite = np.isfinite(mean).all(axis=-1) & np.isfinite(cov).all(axis=(-2, -1))
+        moved[rows] = np.nan
+        moved[rows[finite]] = sample_gaussian(mean[finite], cov[finite], normals[rows[finite]])
+        return moved
 
     #: Whether :meth:`_coast_params` depends on the time (then each piece has its own model).
     time_varying = False

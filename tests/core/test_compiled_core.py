@@ -19,7 +19,7 @@ import sail_env  # noqa: F401
 from sail_env.core.delay import arrived_command
 from sail_env.core.episode import EpisodeCore
 from sail_env.core.reward import LOG_RATIO_RANGE, log10, log_ratio, succeeded
-from sail_env.core.state import EpisodeState
+from sail_env.core.state import FIELDS, SIZES, EpisodeState, Slot, field_shape
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 ROOT = Path(__file__).parents[2]
@@ -37,6 +37,32 @@ def test_every_field_of_the_episode_state_is_documented_and_a_view_of_its_buffer
             assert len(value) == 3, field.name
             if value.size:
                 assert np.shares_memory(value, core.state.floats) or np.shares_memory(value, core.state.ints), field.name
+
+
+@pytest.mark.parametrize("env_id", ["LightSailRealistic-v0", "LightSailUncertain-v1"])
+def test_the_state_follows_its_one_declaration(env_id):
+    """Each declared field is the state's attribute of its dtype and shape, and the fields tile each
+    environment's record of their buffer in the declared order; the layout holds the sizes, the offsets,
+    the records' lengths and the tables, in that order."""
+    core = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point").unwrapped.core
+    state, layout = core.state, core.state.layout
+    assert [f.name for f in dataclasses.fields(EpisodeState)][:len(FIELDS)] == [f.name for f in FIELDS]
+    assert [s.name for s in Slot] == [*SIZES, *(f.offset for f in FIELDS), "FLOAT_RECORD", "INT_RECORD",
+                                      "TABLES"]
+    for dtype, buffer, record in (("float64", state.floats, Slot.FLOAT_RECORD),
+                                  ("int64", state.ints, Slot.INT_RECORD)):
+        fields = [f for f in FIELDS if f.dtype == dtype]
+        assert buffer.dtype == dtype and buffer.shape == (3 * layout[record],)
+        offset = 0
+        for field in fields:
+            value = getattr(state, field.name)
+            assert value.dtype == dtype and value.shape == (3, *field_shape(field, layout)), field.name
+            assert layout[Slot[field.offset]] == offset, field.name
+            offset += value[0].size
+            value[...] = np.arange(value.size).reshape(value.shape) + 1  # each element lands in its own place
+        assert offset == layout[record]
+        records = buffer.reshape(3, -1)
+        assert np.array_equal(records, np.concatenate([getattr(state, f.name).reshape(3, -1) for f in fields], 1))
 
 
 def test_the_envs_and_agents_read_the_core_only_through_its_state():

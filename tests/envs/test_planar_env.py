@@ -269,7 +269,7 @@ def test_frames_show_the_window_from_reset_and_keep_the_sail_in_its_panel(env_id
     frame = env.render()
     assert frame.ndim == 3 and frame.shape[2] == 3 and frame.std() > 0
     figure = env.unwrapped._renderer.figure
-    track = figure.axes[1]
+    track = figure.axes[-1]  # after the sail panels (x, and y in 3D)
     window = (spec.config.control_start_s, spec.config.control_start_s + spec.n_steps * spec.dt)
     assert track.get_xlim() == pytest.approx(window) and "rad/s" in track.get_title()
     sail_panel = drawn[-1]

@@ -400,3 +400,48 @@ def test_velocity_terms_keyword_damps_the_lateral_mode_at_the_closed_form_rate()
     assert np.abs(mode_damping_rates(static.nominal.A)[1]).max() < 1e-3 * rate
     with pytest.raises(ValueError, match="velocity_terms must be a bool"):
         gym.make("LightSail3D-v0", velocity_terms=1)
+
+
+def test_a_3d_frame_shows_both_lateral_axes_with_titles_apart():
+    """Issue 42: the 3D frame drew the x axis only, and the sail panel's title ran into the track's.
+    Now an x–z and a y–z panel (y drawn with −θx, which moves it as θy moves x), and no title overlaps
+    another or leaves the frame."""
+    env = gym.make("LightSail3D-v0", render_mode="rgb_array")
+    env.reset(seed=0, options={"initial_state": {"x": 0.01, "y": -0.03, "theta_x": 1e-3, "theta_y": -5e-4}})
+    frame = env.render()
+    figure = env.unwrapped._renderer.figure
+    x_panel, y_panel, track = figure.axes
+    assert "x = +10.00 mm" in x_panel.get_title() and "θy = -0.500 mrad" in x_panel.get_title()
+    assert "y = -30.00 mm" in y_panel.get_title() and "θx = +1.000 mrad" in y_panel.get_title()
+    assert "ωy" in track.get_title() and "ωx" in track.get_title()
+    # The CoM (the orange dot) sits off the axis on the side of each offset.
+    com_x, com_y = ([line.get_xdata()[0] for line in panel.get_lines() if line.get_marker() == "o"][0]
+                    for panel in (x_panel, y_panel))
+    assert com_x > 0 > com_y
+    renderer = figure.canvas.get_renderer()
+    boxes = [ax.title.get_window_extent(renderer) for ax in figure.axes]
+    height, width = frame.shape[:2]
+    for i, box in enumerate(boxes):
+        assert 0 <= box.x0 and box.x1 <= width and box.y1 <= height
+        assert not any(box.overlaps(other) for other in boxes[i + 1:])
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ["LightSail3D-v0", "LightSail-v0"])
+def test_human_mode_is_refused_as_gymnasium_does(env_id):
+    """Issue 42: ``render_mode="human"`` was declared and accepted, and showed nothing (no frame at reset;
+    on a machine without a display matplotlib's Agg backend shows none at all). The env declares
+    ``rgb_array`` only: constructed directly, "human" is one ValueError; through ``gym.make`` Gymnasium
+    wraps the rgb_array frames in its ``HumanRendering`` window (which needs pygame)."""
+    from gymnasium.wrappers import HumanRendering
+
+    env_class = type(gym.make(env_id).unwrapped)
+    assert env_class.metadata["render_modes"] == ["rgb_array"]
+    with pytest.raises(ValueError, match=r"render_mode must be one of \['rgb_array'\], got 'human'"):
+        env_class(render_mode="human")
+    with pytest.warns(UserWarning, match="HumanRendering wrapper is being applied"):
+        env = gym.make(env_id, render_mode="human")
+    wrapper = env
+    while not isinstance(wrapper, HumanRendering):
+        wrapper = wrapper.env
+    assert env.render_mode == "human" and env.unwrapped.render_mode == "rgb_array"
