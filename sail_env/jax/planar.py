@@ -60,9 +60,11 @@ class EnvParams:
     launch_phi: jax.Array  # (n, n): the propagator from launch to the start of control (beam off)
     coast_phi: jax.Array  # (n, n): one coast piece's propagator
     coast_gamma: jax.Array  # (n, m): one coast piece's input matrix
-    coast_pieces: jax.Array  # pieces of the coast to cut-off (divergence is checked after each)
     speed_at_cutoff: jax.Array  # axial speed at cut-off [m/s]
     max_steps_in_episode: int = struct.field(pytree_node=False, default=200)
+    #: Pieces of the coast to cut-off (divergence is checked after each): static, so that the coast
+    #: unrolls (one matrix product for a stable sail) instead of a loop of data-dependent length.
+    coast_pieces: int = struct.field(pytree_node=False, default=1)
 
 
 def params_of(spec: EpisodeSpec) -> EnvParams:
@@ -88,8 +90,8 @@ def params_of(spec: EpisodeSpec) -> EnvParams:
         limits=jnp.asarray(p.limits[0]), action_scale=jnp.asarray(spec.action_scale),
         state_scale=jnp.asarray(spec.state_scale), start_half_widths=jnp.asarray(spec.start_half_widths),
         launch_phi=jnp.asarray(launch_phi), coast_phi=jnp.asarray(coast_phi), coast_gamma=jnp.asarray(coast_gamma),
-        coast_pieces=jnp.asarray(pieces), speed_at_cutoff=jnp.asarray(plant.speed(p, np.array([cutoff]))[0]),
-        max_steps_in_episode=spec.n_steps)
+        speed_at_cutoff=jnp.asarray(plant.speed(p, np.array([cutoff]))[0]), max_steps_in_episode=spec.n_steps,
+        coast_pieces=pieces)
 
 
 class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
@@ -202,14 +204,11 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     def _score(self, state: EnvState, params: EnvParams) -> EnvState:
         """Coast a finished window to cut-off with the last command held and score it (the
         computation runs every step and is selected, as ``vmap`` would run both branches anyway)."""
-        def piece(j: jax.Array, carry: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
-            x, lost = carry
-            moved = params.coast_phi @ x + params.coast_gamma @ state.last_command
-            active = (j < params.coast_pieces) & ~lost
-            x = jnp.where(active, moved, x)
-            return x, lost | (active & self._diverged(x, params))
-
-        final, coast_lost = jax.lax.fori_loop(0, params.coast_pieces, piece, (state.x, jnp.array(False)))
+        final, coast_lost = state.x, jnp.array(False)
+        drive = params.coast_gamma @ state.last_command
+        for _ in range(params.coast_pieces):
+            final = jnp.where(coast_lost, final, params.coast_phi @ final + drive)
+            coast_lost = coast_lost | self._diverged(final, params)
         velocity = final[jnp.array(self.velocity_rows)]
         pointing = jnp.sqrt(jnp.sum(velocity * velocity)) / params.speed_at_cutoff
         scored = state.terminated & ~state.diverged
