@@ -26,11 +26,15 @@ from sail_env.tasks import JAX_TASKS, PLANAR_TASKS  # noqa: E402
 __all__ = ["EnvParams", "EnvState", "PlanarSailEnv", "make"]
 
 
-def make(env_id: str, **keywords: Any) -> tuple[PlanarSailEnv, EnvParams]:
+def make(env_id: str, dtype: Any = jax.numpy.float64, **keywords: Any) -> tuple[PlanarSailEnv, EnvParams]:
     """The JAX env of a task id and its default params; ``keywords`` as ``gym.make``'s (a bad one
-    is the same ``ValueError``). Today the planar tasks without noise, delay or spread."""
+    is the same ``ValueError``). Today the planar tasks without noise, delay or spread. ``dtype``
+    float32 runs the episode in single precision (faster on accelerators; the Numba core's numbers
+    only to its rounding: docs/performance.md)."""
+    if jax.numpy.dtype(dtype) not in (jax.numpy.float64, jax.numpy.float32):
+        raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
     if env_id not in PLANAR_TASKS:
         raise ValueError(f"the JAX backend has no task {env_id!r}; it has {list(JAX_TASKS)}")
-    env = PlanarSailEnv(planar_spec(**{**PLANAR_TASKS[env_id], **keywords}), env_id)
+    env = PlanarSailEnv(planar_spec(**{**PLANAR_TASKS[env_id], **keywords}), env_id, jax.numpy.dtype(dtype))
     return env, env.default_params
 

@@ -1,11 +1,13 @@
 """The episode core's arithmetic in JAX, operation for operation as the compiled step does it.
 
 Bit-equal results need the same operations in the same order: each dot product is a chain of
-multiply-adds from ``0.0`` over the columns in order (:func:`ordered_dot`), and ``log10`` is the
-project's arithmetic one (:func:`sail_env.core.reward.log10`), not XLA's. On a CPU, XLA must also be
-kept from contracting multiply-adds and from replacing divisions
-(``XLA_FLAGS="--xla_cpu_max_isa=AVX --xla_disable_hlo_passes=algsimp"``); without those flags the
-results agree to ~1e-15 relative.
+multiply-adds from ``0.0`` over the columns in order (:func:`ordered_dot`), ``log10`` is the
+project's arithmetic one (:func:`sail_env.core.reward.log10`), not XLA's, and a division stays a
+division (:func:`divide`: XLA's algebraic simplifier turns ``x / constant`` into ``x * (1 /
+constant)``, which rounds differently). On a CPU, XLA must also be kept from fusing multiply-adds
+(``XLA_FLAGS=--xla_cpu_max_isa=AVX``: no FMA instructions); without that flag the results agree to
+~1e-15 relative. (Disabling the simplifier instead, ``--xla_disable_hlo_passes=algsimp``, makes
+jaxlib 0.10's CPU compiler crash in 2-6 of 10 processes compiling these functions, measured.)
 """
 
 from __future__ import annotations
@@ -18,6 +20,20 @@ from sail_env.core import reward as numba_reward
 _SIGN_EXPONENT_MASK = 0x7FF
 _MANTISSA_BITS = 0x000FFFFFFFFFFFFF
 _EXPONENT_OF_ONE = 0x3FF0000000000000
+
+
+def divide(numerator: jax.Array, denominator: jax.Array | float) -> jax.Array:
+    """``numerator / denominator`` as a true division. XLA's simplifier turns a division by a
+    broadcast value (a scalar param, a constant, anything ``vmap`` shares across environments)
+    into a product with its reciprocal, which rounds differently; an optimisation barrier hides the
+    denominator, given the numerator's full (batched) shape first: an integer OR with the
+    numerator's bits ANDed with 0 makes it depend on the numerator, so ``vmap`` batches it too."""
+    numerator = jnp.asarray(numerator)
+    bits = jnp.int64 if numerator.dtype == jnp.float64 else jnp.int32
+    shaped = jnp.broadcast_to(jnp.asarray(denominator, numerator.dtype), numerator.shape)
+    tied = jax.lax.bitcast_convert_type(shaped, bits) | (jax.lax.bitcast_convert_type(numerator, bits) & 0)
+    numerator, hidden = jax.lax.optimization_barrier((numerator, jax.lax.bitcast_convert_type(tied, numerator.dtype)))
+    return numerator / hidden
 
 
 def ordered_dot(matrix: jax.Array, vector: jax.Array) -> jax.Array:
@@ -49,7 +65,11 @@ def log10(x: jax.Array) -> jax.Array:
 
 
 def log_ratio(pointing: jax.Array) -> jax.Array:
-    """:func:`sail_env.core.reward.log_ratio_of`: ``log10(pointing / tolerance)`` clipped."""
+    """:func:`sail_env.core.reward.log_ratio_of`: ``log10(pointing / tolerance)`` clipped. In float32
+    (the backend's fast option, not the Numba core's arithmetic) XLA's ``log10``."""
     low, high = numba_reward.LOG_RATIO_RANGE
-    ratio = log10(jnp.maximum(pointing, 1e-300) / numba_reward._TOLERANCE)
+    if pointing.dtype != jnp.float64:
+        smallest = jnp.finfo(pointing.dtype).tiny
+        return jnp.clip(jnp.log10(jnp.maximum(pointing / numba_reward._TOLERANCE, smallest)), low, high)
+    ratio = log10(divide(jnp.maximum(pointing, 1e-300), numba_reward._TOLERANCE))
     return jnp.minimum(jnp.maximum(ratio, low), high)

@@ -27,7 +27,7 @@ from gymnax.environments import environment, spaces
 from sail_env.core.episode import OBSERVATION_LIMIT
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS
 from sail_env.core.spec import EpisodeSpec
-from sail_env.jax.arith import log_ratio, ordered_dot
+from sail_env.jax.arith import divide, log_ratio, ordered_dot
 from sail_env.physics.linear_plant import GROWTH_PER_PIECE
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
@@ -67,8 +67,10 @@ class EnvParams:
     coast_pieces: int = struct.field(pytree_node=False, default=1)
 
 
-def params_of(spec: EpisodeSpec) -> EnvParams:
-    """The :class:`EnvParams` of a planar task's spec (its nominal model: no spread)."""
+def params_of(spec: EpisodeSpec, dtype: jnp.dtype = jnp.float64) -> EnvParams:
+    """The :class:`EnvParams` of a planar task's spec (its nominal model: no spread), its arrays
+    (and so the episode's arithmetic) in ``dtype``: float64 is the Numba core's; float32 is faster
+    on accelerators, its error measured in ``tests/jax/test_planar_jax.py`` and docs/performance.md."""
     plant, dist = spec.plant, spec.disturbances
     missing = [name for name, on in (("push_noise", dist.push_noise), ("sensor_noise_std", dist.any_sensor_noise),
                                      ("cutoff_jitter_s", dist.cutoff_jitter_s), ("light_delay", dist.light_delay),
@@ -85,13 +87,15 @@ def params_of(spec: EpisodeSpec) -> EnvParams:
     coast_phi, coast_gamma = plant.nominal.discretize(remaining / pieces)
     pre_control = config.control_start_s
     launch_phi = plant.nominal.discretize(pre_control)[0] if pre_control > 0 else np.eye(plant.n_states)
+    def array(values: np.ndarray) -> jax.Array:
+        return jnp.asarray(values, dtype=dtype)
+
     return EnvParams(
-        step_matrix=jnp.asarray(p.step[0]), envelope=jnp.asarray(p.envelope[0].T),
-        limits=jnp.asarray(p.limits[0]), action_scale=jnp.asarray(spec.action_scale),
-        state_scale=jnp.asarray(spec.state_scale), start_half_widths=jnp.asarray(spec.start_half_widths),
-        launch_phi=jnp.asarray(launch_phi), coast_phi=jnp.asarray(coast_phi), coast_gamma=jnp.asarray(coast_gamma),
-        speed_at_cutoff=jnp.asarray(plant.speed(p, np.array([cutoff]))[0]), max_steps_in_episode=spec.n_steps,
-        coast_pieces=pieces)
+        step_matrix=array(p.step[0]), envelope=array(p.envelope[0].T), limits=array(p.limits[0]),
+        action_scale=array(spec.action_scale), state_scale=array(spec.state_scale),
+        start_half_widths=array(spec.start_half_widths), launch_phi=array(launch_phi), coast_phi=array(coast_phi),
+        coast_gamma=array(coast_gamma), speed_at_cutoff=array(plant.speed(p, np.array([cutoff]))[0]),
+        max_steps_in_episode=spec.n_steps, coast_pieces=pieces)
 
 
 class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
@@ -100,13 +104,13 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
 
     The episode is the Numba core's (:mod:`sail_env.core.kernels`, :mod:`sail_env.core.episode`):
     fed the same launch states and actions, both give the same observations to the bit on a CPU
-    (under the XLA flags of :mod:`sail_env.jax.arith`), rewards within 1e-12 and terminal pointing
+    (under the XLA flag of :mod:`sail_env.jax.arith`), rewards within 1e-12 and terminal pointing
     within 1e-9 (``tests/jax/test_planar_jax.py``). At an episode's end ``info`` carries the Gym
     envs' scores: ``is_success``, ``terminal_pointing_rad`` (NaN before the end, inf after a
     divergence) and ``diverged``.
     """
 
-    def __init__(self, spec: EpisodeSpec, env_id: str = "LightSail") -> None:
+    def __init__(self, spec: EpisodeSpec, env_id: str = "LightSail", dtype: jnp.dtype = jnp.float64) -> None:
         super().__init__()
         plant = spec.plant
         self._id = env_id
@@ -114,7 +118,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         self.observation_size = spec.observation_size
         self.divergence_groups = plant.divergence_groups
         self.velocity_rows = plant.velocity_rows
-        self._params = params_of(spec)
+        self._params = params_of(spec, dtype)
 
     @property
     def name(self) -> str:
@@ -157,15 +161,15 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         """One control step (the compiled kernel's order), then at the window's end the coast and
         the score. A NaN action makes the state NaN and the episode diverge (JAX cannot raise)."""
         del key  # no noise on these tasks
-        command = jnp.clip(jnp.asarray(action, jnp.float64), -1.0, 1.0) * params.action_scale
+        command = jnp.clip(jnp.asarray(action, params.action_scale.dtype), -1.0, 1.0) * params.action_scale
         x = ordered_dot(params.step_matrix, jnp.concatenate([state.x, command]))
         peak = self._peak_speed(params.envelope, jnp.concatenate([x, command]))
-        envelope = peak / params.speed_at_cutoff
+        envelope = divide(peak, params.speed_at_cutoff)
         window = params.max_steps_in_episode
         time = state.time + 1
         diverged = self._diverged(x, params)
         terminated = diverged | (time >= window)
-        reward = jnp.where(diverged, DIVERGENCE_PENALTY, -log_ratio(envelope) / window)
+        reward = jnp.where(diverged, DIVERGENCE_PENALTY, divide(-log_ratio(envelope), window))
         state = state.replace(time=time, x=x, last_command=command, reward=reward, envelope=envelope,
                               terminated=terminated, diverged=diverged)
         state = self._score(state, params)
@@ -210,7 +214,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
             final = jnp.where(coast_lost, final, params.coast_phi @ final + drive)
             coast_lost = coast_lost | self._diverged(final, params)
         velocity = final[jnp.array(self.velocity_rows)]
-        pointing = jnp.sqrt(jnp.sum(velocity * velocity)) / params.speed_at_cutoff
+        pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), params.speed_at_cutoff)
         scored = state.terminated & ~state.diverged
         bonus = jnp.where(pointing <= POINTING_TOLERANCE_RAD, SUCCESS_BONUS, 0.0)
         reward = jnp.where(scored, state.reward + (-log_ratio(pointing) + bonus), state.reward)
@@ -223,8 +227,8 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     def observe_state(self, state: EnvState, params: EnvParams) -> jax.Array:
         """The state over its scales (clipped to the observation's limit), then the progress
         through the window, as float32 (the kernels' ``_observe``)."""
-        scaled = jnp.clip(state.x / params.state_scale, -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
-        progress = 2.0 * state.time / params.max_steps_in_episode - 1.0
+        scaled = jnp.clip(divide(state.x, params.state_scale), -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
+        progress = divide(2.0 * state.time.astype(params.state_scale.dtype), params.max_steps_in_episode) - 1.0
         return jnp.concatenate([scaled, progress[None]]).astype(jnp.float32)
 
     def get_obs(self, state: EnvState, params: EnvParams | None = None, key: jax.Array | None = None) -> jax.Array:
