@@ -53,6 +53,7 @@ from agents import Agent, LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
 from agents.adaptive import MultipleModelLQGAgent, OffsetFreeMultipleModelLQGAgent  # noqa: E402
 from agents.oracle import OracleLQGAgent, OracleLQRAgent, attach  # noqa: E402
 from agents.residual import RESIDUAL_BASES, ResidualAgent  # noqa: E402
+from agents.mlp_policy import MlpPolicyAgent  # noqa: E402
 from agents.cli import (HelpFormatter, OneLineWarnings, Parser, UsageError, check_writable_dir, describe,  # noqa: E402
                         fail)
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
@@ -89,6 +90,8 @@ def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Ag
         return BASELINES[spec](env.unwrapped.episode_spec)
     if not Path(spec).is_file():
         raise ModelLoadError(not_an_agent(spec))
+    if Path(spec).suffix == ".npz":  # a JAX learner's actor (train_jax.py), played in NumPy
+        return load_policy(spec, env)
     agent = SB3Agent.load(spec, env.observation_space.shape, raw_observations_ok)
     if agent.trained_env is not None and agent.trained_env != env.spec.id:
         print(f"warning: {spec} was trained on {agent.trained_env} (its run.json), "
@@ -96,6 +99,21 @@ def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Ag
     if agent.residual is not None:  # the policy corrects a classical controller, which runs beside it
         base, scale = agent.residual
         return ResidualAgent(agent, RESIDUAL_BASES[base](env.unwrapped.episode_spec), scale)
+    return agent
+
+
+def load_policy(spec: str, env: gym.Env) -> MlpPolicyAgent:
+    """A ``policy.npz`` of ``train_jax.py`` as an agent named after its run folder (``ModelLoadError``
+    if unreadable or for observations of another size)."""
+    try:
+        agent = MlpPolicyAgent(spec, name=Path(spec).resolve().parent.name)
+    except (OSError, ValueError, KeyError) as err:
+        raise ModelLoadError(f"{spec}: not a policy file of train_jax.py ({err})") from err
+    if agent.obs_size != env.observation_space.shape[-1]:
+        raise ModelLoadError(f"{spec}: its policy takes observations of size {agent.obs_size} "
+                             f"({agent.meta.get('env_id')}), {env.spec.id}'s are {env.observation_space.shape[-1]}")
+    if agent.meta.get("env_id") not in (None, env.spec.id):
+        print(f"warning: {spec} was trained on {agent.meta['env_id']}, evaluated here on {env.spec.id}", file=sys.stderr)
     return agent
 
 
@@ -107,13 +125,13 @@ def not_an_agent(spec: str) -> str:
     folder = path if path.is_dir() else path.parent
     if not (os.sep in spec or path.suffix == ".zip") or not folder.is_dir():
         return message
-    models = sorted(p.name for p in folder.glob("*.zip"))
+    models = sorted(p.name for pattern in ("*.zip", "*.npz") for p in folder.glob(pattern))
     checkpoints = list((folder / "checkpoints").glob("*.zip"))
     if models:
         return f"{message}; {folder} holds {', '.join(models)}: pass one of those"
     if checkpoints:
         return f"{message}; {folder} holds no model, only {len(checkpoints)} checkpoints in {folder / 'checkpoints'}"
-    return f"{message}; {folder} holds no model (.zip)"
+    return f"{message}; {folder} holds no model (.zip, or a JAX run's .npz)"
 
 
 def run_episode(env: gym.Env, agent: Agent, seed: int, trajectory: bool = False) -> dict[str, Any]:
@@ -586,7 +604,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = Parser(prog="evaluate.py", description=describe(__doc__), formatter_class=HelpFormatter)
     parser.add_argument("--env", default="LightSail-v0", help=f"task id: {', '.join(TASKS)}")
     parser.add_argument("--agent", action="append", required=True,
-                        help=f"one of {', '.join(BASELINES)} or a model .zip; repeat to compare")
+                        help=f"one of {', '.join(BASELINES)}, a model .zip or a JAX run's policy.npz; repeat to compare")
     parser.add_argument("--episodes", type=int, default=200, help="paired episodes per agent")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses reset(seed=seed + i)")
     parser.add_argument("--out", type=Path, help="report directory (default: reports/<env>, or the first free "

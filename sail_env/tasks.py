@@ -111,8 +111,13 @@ RIGID3D_TASKS["LightSailUncertain-v1"] = {**RIGID3D_TASKS["LightSail3DRealistic-
 
 TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}
 
+#: The tasks the JAX backend (``sail_env.jax``) carries, registered as ``jax/<id>`` too (Gymnasium's
+#: functional API); the others need noise, light delay, spread or the 3D sail there first.
+JAX_TASKS = ("LightSail-v0", "LightSailDeepDish-v0")
+
 #: ``(entry_point, vector_entry_point)`` of each family of tasks.
 ENTRY_POINTS = {
     "planar": ("sail_env.envs.planar:LightSailEnv", "sail_env.envs.vector:LightSailVectorEnv"),
     "rigid3d": ("sail_env.envs.rigid3d:LightSail3DEnv", "sail_env.envs.rigid3d:rigid3d_vector_env"),
+    "jax": ("sail_env.jax.functional:LightSailJaxEnv", "sail_env.jax.functional:LightSailJaxVectorEnv"),
 }

@@ -1,0 +1,100 @@
+"""Speed of the JAX backend against gymnax's ``CartPole-v1``, in one process, interleaved.
+
+    python -m benchmarks.speed_jax [--quick] [--sizes 1000 10000 ...] [--rounds K] [--out FILE]
+
+Each subject and the peer run the same loop: ``jit`` of a ``lax.scan`` over ``vmap(env.step)``
+(autoreset inside the step) with uniform random actions drawn inside the loop, N environments,
+``--steps`` steps per call. They take turns (peer, subject, peer, subject, …, ``--rounds`` of
+each) and the best round of each counts: a neighbour's burst slows a round, never speeds one up.
+The table gives env-steps/s and the ratio subject ÷ peer at each N, on whatever device JAX finds
+(its name and the CPU model are printed). Compilation is timed apart (the first call).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+
+import sail_env.jax
+from sail_env.provenance import machine
+
+SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0")
+SIZES = (1_000, 10_000, 100_000, 1_000_000)
+
+
+def rollout(env, params, envs: int, steps: int, continuous: bool):
+    """A jitted function of a key: ``steps`` autoresetting steps of ``envs`` environments; returns
+    the rewards' sum (so that nothing is optimised away)."""
+    def run(key):
+        obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, envs), params)
+
+        def one(carry, key):
+            state, total = carry
+            act_key, step_key = jax.random.split(key)
+            if continuous:
+                action = jax.random.uniform(act_key, (envs, 2), minval=-1.0, maxval=1.0)
+            else:
+                action = jax.random.randint(act_key, (envs,), 0, 2)
+            _, state, reward, _, _, _ = jax.vmap(env.step, in_axes=(0, 0, 0, None))(
+                jax.random.split(step_key, envs), state, action, params)
+            return (state, total + reward.sum()), None
+
+        (_, total), _ = jax.lax.scan(one, (state, jnp.zeros(())), jax.random.split(key, steps))
+        return total
+
+    return jax.jit(run)
+
+
+def timed(function, key) -> float:
+    start = time.perf_counter()
+    jax.block_until_ready(function(key))
+    return time.perf_counter() - start
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=SIZES)
+    parser.add_argument("--steps", type=int, default=200, help="steps per timed call (default 200)")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="N = 10^3 and 10^4, 2 rounds")
+    parser.add_argument("--out", type=Path, help="write every round as JSON here")
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.sizes, args.rounds = [1_000, 10_000], 2
+    import gymnax
+
+    peer_env, peer_params = gymnax.make("CartPole-v1")
+    device = jax.devices()[0]
+    print(f"device: {device.device_kind} ({device.platform}); CPU: {machine()['cpu']}; JAX {jax.__version__}")
+    print("\n| task | N | env-steps/s | CartPole-v1 env-steps/s | ratio | compile [s] |\n|---|---:|---:|---:|---:|---:|")
+    rows = []
+    for envs in args.sizes:
+        peer = rollout(peer_env, peer_params, envs, args.steps, continuous=False)
+        peer_compile = timed(peer, jax.random.key(0))
+        for task in SUBJECTS:
+            env, params = sail_env.jax.make(task)
+            subject = rollout(env, params, envs, args.steps, continuous=True)
+            compile_s = timed(subject, jax.random.key(0))
+            best_peer = best_subject = float("inf")
+            for r in range(args.rounds):
+                best_peer = min(best_peer, timed(peer, jax.random.key(r + 1)))
+                best_subject = min(best_subject, timed(subject, jax.random.key(r + 1)))
+            rate, peer_rate = envs * args.steps / best_subject, envs * args.steps / best_peer
+            rows.append({"task": task, "envs": envs, "rate": rate, "peer_rate": peer_rate,
+                         "compile_s": compile_s, "peer_compile_s": peer_compile})
+            print(f"| {task} | {envs:,} | {rate:.3g} | {peer_rate:.3g} | {rate / peer_rate:.2f}x | {compile_s:.1f} |",
+                  flush=True)
+    if args.out:
+        args.out.write_text(json.dumps({"device": str(device.device_kind), "machine": machine(),
+                                        "jax": jax.__version__, "steps": args.steps, "rows": rows}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

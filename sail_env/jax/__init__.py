@@ -1,0 +1,40 @@
+"""The JAX backend: the tasks as pure functions for ``jit``, ``vmap`` and ``lax.scan``
+(gymnax's API), beside the Numba core that serves the Gym envs.
+
+>>> import jax
+>>> import sail_env.jax
+>>> env, params = sail_env.jax.make("LightSail-v0")
+>>> obs, state = env.reset(jax.random.key(0), params)
+>>> obs, state, reward, terminated, truncated, info = env.step(jax.random.key(1), state, jax.numpy.zeros(2), params)
+
+Importing this module turns on JAX's float64 (``jax_enable_x64``): the physics is float64, as the
+Numba core's. ``import sail_env`` never imports JAX; ``pip install -e ".[jax]"`` installs it (CPU).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+from sail_env.envs.planar import planar_spec  # noqa: E402  (after float64 is on)
+from sail_env.jax.planar import EnvParams, EnvState, PlanarSailEnv  # noqa: E402
+from sail_env.tasks import JAX_TASKS, PLANAR_TASKS  # noqa: E402
+
+__all__ = ["EnvParams", "EnvState", "PlanarSailEnv", "make"]
+
+
+def make(env_id: str, dtype: Any = jax.numpy.float64, **keywords: Any) -> tuple[PlanarSailEnv, EnvParams]:
+    """The JAX env of a task id and its default params; ``keywords`` as ``gym.make``'s (a bad one
+    is the same ``ValueError``). Today the planar tasks without noise, delay or spread. ``dtype``
+    float32 runs the episode in single precision (faster on accelerators; the Numba core's numbers
+    only to its rounding: docs/performance.md)."""
+    if jax.numpy.dtype(dtype) not in (jax.numpy.float64, jax.numpy.float32):
+        raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
+    if env_id not in PLANAR_TASKS:
+        raise ValueError(f"the JAX backend has no task {env_id!r}; it has {list(JAX_TASKS)}")
+    env = PlanarSailEnv(planar_spec(**{**PLANAR_TASKS[env_id], **keywords}), env_id, jax.numpy.dtype(dtype))
+    return env, env.default_params
+

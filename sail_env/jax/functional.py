@@ -1,0 +1,97 @@
+"""The JAX tasks in Gymnasium's functional API: a ``FuncEnv`` whose single and vector envs are
+Gymnasium's ``FunctionalJaxEnv`` and ``FunctionalJaxVectorEnv`` (as ``phys2d/CartPole-v1``).
+
+``gym.make("jax/LightSail-v0")`` and ``gym.make_vec("jax/LightSail-v0", num_envs=N)`` build them
+(``import sail_env`` registers the ids without importing JAX); ``metadata["jax"]`` is True and
+observations are JAX arrays. The functions are :class:`~sail_env.jax.planar.PlanarSailEnv`'s,
+so both APIs play the same episodes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import numpy as np
+from gymnasium import spaces
+from gymnasium.envs.functional_jax_env import FunctionalJaxEnv, FunctionalJaxVectorEnv
+from gymnasium.experimental.functional import FuncEnv
+from gymnasium.utils import EzPickle
+from gymnasium.vector import AutoresetMode
+
+import sail_env.jax as backend
+from sail_env.core.episode import OBSERVATION_LIMIT
+from sail_env.jax.planar import EnvParams, EnvState, PlanarSailEnv
+
+#: The namespace of the JAX ids: ``jax/LightSail-v0`` is ``LightSail-v0`` on this backend.
+NAMESPACE = "jax"
+
+
+class LightSailFunctional(FuncEnv):
+    """A task of the JAX backend as Gymnasium's ``FuncEnv`` (``params`` default to the task's)."""
+
+    def __init__(self, env_id: str, **keywords: Any) -> None:
+        self.env, self._params = backend.make(env_id, **keywords)
+        self.observation_space = spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (self.env.observation_size,),
+                                            np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (self.env.n_inputs,), np.float32)
+        super().__init__()
+
+    def get_default_params(self, **kwargs: Any) -> EnvParams:
+        return self._params
+
+    def _given(self, params: EnvParams | None) -> EnvParams:
+        return self._params if params is None else params
+
+    def initial(self, rng: jax.Array, params: EnvParams | None = None) -> EnvState:
+        return self.env.reset_env(rng, self._given(params))[1]
+
+    def transition(self, state: EnvState, action: jax.Array, rng: jax.Array,
+                   params: EnvParams | None = None) -> EnvState:
+        return self.env.step_env(rng, state, action, self._given(params))[1]
+
+    def observation(self, state: EnvState, rng: jax.Array, params: EnvParams | None = None) -> jax.Array:
+        return self.env.observe_state(state, self._given(params))
+
+    def reward(self, state: EnvState, action: jax.Array, next_state: EnvState, rng: jax.Array,
+               params: EnvParams | None = None) -> jax.Array:
+        return next_state.reward
+
+    def terminal(self, state: EnvState, rng: jax.Array, params: EnvParams | None = None) -> jax.Array:
+        return state.terminated
+
+    def state_info(self, state: EnvState, params: EnvParams | None = None) -> dict:
+        return {}
+
+    def transition_info(self, state: EnvState, action: jax.Array, next_state: EnvState,
+                        params: EnvParams | None = None) -> dict:
+        return PlanarSailEnv.scores(next_state)
+
+
+class LightSailJaxEnv(FunctionalJaxEnv, EzPickle):
+    """One environment of a JAX task through Gymnasium's ``Env`` API (JAX arrays out)."""
+
+    metadata = {"render_modes": [], "jax": True}
+
+    def __init__(self, env_id: str = "LightSail-v0", render_mode: str | None = None, **keywords: Any) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None (the JAX envs do not render), got {render_mode!r}")
+        EzPickle.__init__(self, env_id=env_id, render_mode=render_mode, **keywords)
+        func_env = LightSailFunctional(env_id, **keywords)
+        func_env.transform(jax.jit)
+        FunctionalJaxEnv.__init__(self, func_env, metadata=self.metadata)
+
+
+class LightSailJaxVectorEnv(FunctionalJaxVectorEnv, EzPickle):
+    """N environments of a JAX task through Gymnasium's ``VectorEnv`` API (autoreset ``NEXT_STEP``)."""
+
+    metadata = {"render_modes": [], "jax": True, "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int, env_id: str = "LightSail-v0", render_mode: str | None = None,
+                 **keywords: Any) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None (the JAX envs do not render), got {render_mode!r}")
+        EzPickle.__init__(self, num_envs=num_envs, env_id=env_id, render_mode=render_mode, **keywords)
+        func_env = LightSailFunctional(env_id, **keywords)
+        FunctionalJaxVectorEnv.__init__(self, func_env, num_envs=num_envs, metadata=self.metadata)
+        self.func_env.transform(jax.jit)

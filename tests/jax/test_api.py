@@ -1,0 +1,114 @@
+"""The JAX backend's interface: gymnax's API with autoreset, params per environment, a jitted
+``lax.scan`` rollout, clear refusals, and ``import sail_env`` without JAX."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+jax = pytest.importorskip("jax")
+pytest.importorskip("gymnax")
+
+import jax.numpy as jnp  # noqa: E402
+
+import sail_env.jax  # noqa: E402
+
+
+def test_import_sail_env_never_imports_jax() -> None:
+    check = "import sail_env, sail_env.envs.planar, sail_env.envs.rigid3d, agents, sys; print('jax' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "False"
+
+
+def test_step_autoresets_and_reports_the_score_at_the_end() -> None:
+    env, params = sail_env.jax.make("LightSail-v0")
+    obs, state = env.reset(jax.random.key(0), params)
+    assert obs.shape == env.observation_space(params).shape == (5,) and obs.dtype == jnp.float32
+    assert env.action_space(params).shape == (2,)
+    for t in range(params.max_steps_in_episode):
+        last_obs = obs
+        obs, state, reward, terminated, truncated, info = env.step(jax.random.key(t + 1), state, jnp.zeros(2), params)
+        assert not truncated
+        assert bool(terminated) == (t == params.max_steps_in_episode - 1)
+    # The passive sail keeps oscillating: scored, not successful; the state is the next episode's.
+    assert np.isfinite(info["terminal_pointing_rad"]) and info["terminal_pointing_rad"] > 1e-8
+    assert not info["is_success"] and not info["diverged"]
+    assert int(state.time) == 0 and float(obs[-1]) == -1.0
+    assert float(info["final_observation"][-1]) == 1.0 and not np.array_equal(info["final_observation"], last_obs)
+
+
+def test_each_environment_can_have_its_own_params() -> None:
+    """``vmap`` over a batch of params (domain randomisation): each environment plays what a
+    single env with its params plays."""
+    env, wide = sail_env.jax.make("LightSail-v0")
+    _, narrow = sail_env.jax.make("LightSail-v0", max_beam_offset_m=0.005)
+    batch = jax.tree.map(lambda a, b: jnp.stack([a, b]), wide, narrow)
+    launch = jnp.asarray([[1e-3, 0.05, 1e-3, 0.0]] * 2)
+    action = jnp.asarray([[0.7, -0.3]] * 2)
+    _, states = jax.vmap(env.reset_from)(launch, batch)
+    obs, _, reward, _, _ = jax.vmap(env.step_env, in_axes=(None, 0, 0, 0))(jax.random.key(0), states, action, batch)
+    for row, params in enumerate((wide, narrow)):
+        _, single = env.reset_from(launch[row], params)
+        alone, _, alone_reward, _, _ = env.step_env(jax.random.key(0), single, action[row], params)
+        np.testing.assert_array_equal(obs[row], alone)
+        assert reward[row] == alone_reward
+    assert not np.array_equal(obs[0], obs[1])
+
+
+def test_a_jitted_scan_rolls_out_many_environments() -> None:
+    env, params = sail_env.jax.make("LightSailDeepDish-v0")
+    envs, steps = 64, 450
+
+    def rollout(key):
+        obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, envs), params)
+
+        def one(carry, key):
+            state, obs = carry
+            step_key, act_key = jax.random.split(key)
+            action = jax.random.uniform(act_key, (envs, 2), minval=-1.0, maxval=1.0)
+            obs, state, reward, terminated, _, info = jax.vmap(env.step, in_axes=(0, 0, 0, None))(
+                jax.random.split(step_key, envs), state, action, params)
+            return (state, obs), (reward, terminated, info["is_success"])
+
+        return jax.lax.scan(one, (state, obs), jax.random.split(key, steps))[1]
+
+    reward, terminated, success = jax.jit(rollout)(jax.random.key(3))
+    assert reward.shape == (steps, envs) and bool(jnp.all(jnp.isfinite(reward)))
+    assert int(terminated.sum()) == 2 * envs  # every environment ended two 200-step windows
+    assert int(success.sum()) <= int(terminated.sum())
+
+
+def test_tasks_the_backend_does_not_carry_are_refused() -> None:
+    with pytest.raises(ValueError, match="light_delay"):
+        sail_env.jax.make("LightSailRealistic-v0")
+    with pytest.raises(ValueError, match="push_noise"):
+        sail_env.jax.make("LightSail-v0", push_noise=0.01)
+    with pytest.raises(ValueError, match="no task 'CartPole-v1'"):
+        sail_env.jax.make("CartPole-v1")
+    with pytest.raises(ValueError, match="max_beam_offset_m"):
+        sail_env.jax.make("LightSail-v0", max_beam_offset_m=-1.0)
+
+
+def test_gymnasium_functional_envs_play_the_same_episodes() -> None:
+    """``gym.make("jax/LightSail-v0")`` and its vector env are Gymnasium's functional wrappers over
+    the same functions: the same key gives the same episode as gymnax's API."""
+    import gymnasium as gym
+
+    env = gym.make("jax/LightSail-v0")
+    assert env.unwrapped.metadata["jax"] is True
+    obs, _ = env.reset(seed=7)
+    assert env.observation_space.contains(np.asarray(obs))
+    total, steps, terminated = 0.0, 0, False
+    while not terminated:
+        obs, reward, terminated, truncated, info = env.step(np.array([0.1, -0.1], dtype=np.float32))
+        total, steps = total + reward, steps + 1
+    assert steps == 200 and np.isfinite(info["terminal_pointing_rad"]) and "is_success" in info
+    envs = gym.make_vec("jax/LightSail-v0", num_envs=8)
+    obs, _ = envs.reset(seed=0)
+    obs, reward, terminated, truncated, info = envs.step(np.zeros((8, 2), dtype=np.float32))
+    assert obs.shape == (8, 5) and reward.shape == (8,) and not bool(np.any(terminated))
+    with pytest.raises(ValueError, match="render_mode"):
+        gym.make("jax/LightSail-v0", render_mode="human")
