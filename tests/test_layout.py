@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 RUNTIME = ("import sail_env, sail_env.envs.planar, sail_env.envs.rigid3d, sail_env.envs.vector, agents.evaluation, "
            "agents.training, agents.grid, agents.tuning")
@@ -21,7 +22,6 @@ def test_the_core_knows_no_concrete_sail_model() -> None:
     """The episode core and the spec take a plant through its contract (``sail_env.core.plant``):
     a new sail model needs no change in ``sail_env.core``."""
     import ast
-    from pathlib import Path
 
     concrete = ("sail_env.physics.planar", "sail_env.physics.rigid3d", "PlanarPlant", "RigidPlant", "UncertainPlant")
     for path in sorted(Path("sail_env/core").glob("*.py")):
@@ -44,7 +44,7 @@ FLOORS = {
 }
 
 
-def import_graph(root: "Path", packages: tuple[str, ...]) -> dict[str, set[str]]:
+def import_graph(root: Path, packages: tuple[str, ...]) -> dict[str, set[str]]:
     """Every module of ``packages`` (under ``root``) and the modules of ``packages`` it imports,
     at module level or inside a function, read from the source: ``from p import name`` imports
     ``p.name`` where that is a module, ``p`` (its ``__init__``) otherwise; the parent packages a
@@ -120,7 +120,6 @@ def test_the_import_graph_has_no_cycles_and_runs_downwards() -> None:
     """No module imports itself back through others (lazy imports included), and none imports
     from a floor above its own (:data:`FLOORS`): a new sail model, disturbance or task is added
     without touching the floors below it."""
-    from pathlib import Path
 
     graph = import_graph(Path(__file__).parents[1], ("sail_env", "agents", "benchmarks"))
     assert len(graph) > 50 and sum(map(len, graph.values())) > 150, "the scan found too little"
@@ -133,7 +132,6 @@ def test_the_import_graph_has_no_cycles_and_runs_downwards() -> None:
 def test_the_graph_scan_sees_a_lazy_circular_import(tmp_path) -> None:
     """The scan itself: a circle closed by an import inside a function, through a relative import,
     is found, and so is an import from a floor above."""
-    from pathlib import Path
 
     package = tmp_path / "sail_env"
     (package / "physics").mkdir(parents=True)
@@ -160,7 +158,6 @@ def test_the_sail_models_are_siblings_on_generic_physics() -> None:
     the disturbances, the seed's design point) imports none: each model supplies what the generic
     code needs (its push terms, velocity rows, mode rates), so a new model is one package beside
     them. ``sail_env.physics`` itself re-exports the planar names for short imports."""
-    from pathlib import Path
 
     graph = import_graph(Path(__file__).parents[1], ("sail_env",))
 

@@ -14,8 +14,6 @@ others with a ``ValueError`` naming what is missing.
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from typing import Any
 
 import jax
@@ -28,7 +26,6 @@ from sail_env.core.episode import OBSERVATION_LIMIT
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS
 from sail_env.core.spec import EpisodeSpec
 from sail_env.jax.arith import divide, log_ratio, ordered_dot
-from sail_env.physics.linear_plant import GROWTH_PER_PIECE
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 
