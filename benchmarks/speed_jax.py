@@ -1,19 +1,23 @@
 """Speed of the JAX backend against gymnax's ``CartPole-v1``, in one process, interleaved.
 
-    python -m benchmarks.speed_jax [--quick] [--sizes 1000 10000 ...] [--rounds K] [--out FILE]
+    python -m benchmarks.speed_jax [--quick] [--sizes 1000 10000 ...] [--rounds K] [--out FILE] [--readme FILE]
 
 Each subject and the peer run the same loop: ``jit`` of a ``lax.scan`` over ``vmap(env.step)``
 (autoreset inside the step) with uniform random actions drawn inside the loop, N environments,
 ``--steps`` steps per call. They take turns (peer, subject, peer, subject, …, ``--rounds`` of
 each) and the best round of each counts: a neighbour's burst slows a round, never speeds one up.
 The table gives env-steps/s and the ratio subject ÷ peer at each N, on whatever device JAX finds
-(its name and the CPU model are printed). Compilation is timed apart (the first call).
+(its name and the CPU model are printed). Compilation is timed apart (the first call), and so is
+a new process's cold start of the JAX path: import, ``make``, compile and the first step of one
+environment. With ``--readme FILE`` the tables go between that markdown file's ``jax-speed-table``
+markers (docs/performance.md).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -22,10 +26,23 @@ import jax
 import jax.numpy as jnp
 
 import sail_env.jax
+from agents import cli
 from sail_env.provenance import machine
 
 SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0")
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
+README_SECTION = "jax-speed-table"
+#: A new process's first step on the JAX path (its time printed by the process itself).
+COLD_START = """
+import time
+start = time.perf_counter()
+import jax
+import sail_env.jax
+env, params = sail_env.jax.make("LightSail-v0")
+obs, state = env.reset(jax.random.key(0), params)
+jax.block_until_ready(env.step(jax.random.key(1), state, jax.numpy.zeros(2), params))
+print(time.perf_counter() - start)
+"""
 
 
 def rollout(env, params, envs: int, steps: int, continuous: bool):
@@ -57,6 +74,12 @@ def timed(function, key) -> float:
     return time.perf_counter() - start
 
 
+def cold_start_s() -> float:
+    """Seconds a new Python process takes from ``import jax`` to its first step of ``LightSail-v0``."""
+    done = subprocess.run([sys.executable, "-c", COLD_START], capture_output=True, text=True, check=True)
+    return float(done.stdout.strip().splitlines()[-1])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=SIZES)
@@ -64,15 +87,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="N = 10^3 and 10^4, 2 rounds")
     parser.add_argument("--out", type=Path, help="write every round as JSON here")
+    parser.add_argument("--readme", type=Path, help="put the tables between this markdown file's markers")
     args = parser.parse_args(argv)
+    if args.readme:
+        try:
+            cli.readme_around_section(args.readme, README_SECTION)
+        except cli.UsageError as err:
+            return cli.fail(err)
     if args.quick:
         args.sizes, args.rounds = [1_000, 10_000], 2
     import gymnax
 
     peer_env, peer_params = gymnax.make("CartPole-v1")
     device = jax.devices()[0]
-    print(f"device: {device.device_kind} ({device.platform}); CPU: {machine()['cpu']}; JAX {jax.__version__}")
-    print("\n| task | N | env-steps/s | CartPole-v1 env-steps/s | ratio | compile [s] |\n|---|---:|---:|---:|---:|---:|")
+    lines = [f"Measured on {device.device_kind} ({device.platform}; CPU: {machine()['cpu']}, {machine()['cpus']} cores), "
+             f"JAX {jax.__version__}, {time.strftime('%Y-%m-%d')}: best of {args.rounds} interleaved rounds of "
+             f"{args.steps} steps, float64.", "",
+             "| task | N | env-steps/s | gymnax CartPole-v1 env-steps/s | ratio | compile [s] |",
+             "|---|---:|---:|---:|---:|---:|"]
+    print("\n".join(lines), flush=True)
     rows = []
     for envs in args.sizes:
         peer = rollout(peer_env, peer_params, envs, args.steps, continuous=False)
@@ -88,11 +121,17 @@ def main(argv: list[str] | None = None) -> int:
             rate, peer_rate = envs * args.steps / best_subject, envs * args.steps / best_peer
             rows.append({"task": task, "envs": envs, "rate": rate, "peer_rate": peer_rate,
                          "compile_s": compile_s, "peer_compile_s": peer_compile})
-            print(f"| {task} | {envs:,} | {rate:.3g} | {peer_rate:.3g} | {rate / peer_rate:.2f}x | {compile_s:.1f} |",
-                  flush=True)
+            lines.append(f"| {task} | {envs:,} | {rate:.3g} | {peer_rate:.3g} | {rate / peer_rate:.2f}× | {compile_s:.1f} |")
+            print(lines[-1], flush=True)
+    cold = cold_start_s()
+    lines += ["", f"A new process's import, make, compile and first step of `LightSail-v0`: {cold:.1f} s."]
+    print(lines[-1])
+    if args.readme:
+        cli.replace_readme_section(args.readme, README_SECTION, "\n".join(lines))
     if args.out:
         args.out.write_text(json.dumps({"device": str(device.device_kind), "machine": machine(),
-                                        "jax": jax.__version__, "steps": args.steps, "rows": rows}, indent=1))
+                                        "jax": jax.__version__, "steps": args.steps, "rows": rows,
+                                        "cold_start_s": cold}, indent=1))
     return 0
 
 

@@ -112,3 +112,14 @@ def test_gymnasium_functional_envs_play_the_same_episodes() -> None:
     assert obs.shape == (8, 5) and reward.shape == (8,) and not bool(np.any(terminated))
     with pytest.raises(ValueError, match="render_mode"):
         gym.make("jax/LightSail-v0", render_mode="human")
+
+
+def test_speed_jax_writes_its_table_between_the_markers(tmp_path) -> None:
+    from benchmarks import speed_jax
+
+    doc = tmp_path / "performance.md"
+    doc.write_text("before\n<!-- jax-speed-table:start -->\nold\n<!-- jax-speed-table:end -->\nafter\n")
+    assert speed_jax.main(["--sizes", "64", "--rounds", "1", "--steps", "4", "--readme", str(doc)]) == 0
+    text = doc.read_text()
+    assert "old" not in text and text.startswith("before\n") and text.endswith("after\n")
+    assert "| LightSail-v0 | 64 |" in text and "first step of `LightSail-v0`" in text
