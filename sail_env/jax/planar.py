@@ -110,6 +110,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     def __init__(self, spec: EpisodeSpec, env_id: str = "LightSail", dtype: jnp.dtype = jnp.float64) -> None:
         super().__init__()
         plant = spec.plant
+        self.spec = spec  # what controllers design on, as the Gym envs' ``episode_spec``
         self._id = env_id
         self.n_states, self.n_inputs = plant.n_states, plant.n_inputs
         self.observation_size = spec.observation_size
