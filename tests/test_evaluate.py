@@ -139,7 +139,7 @@ def test_a_missing_model_is_named_with_the_models_its_folder_holds(model: Path, 
     assert f"{tmp_path / 'latest'} holds final_model.zip: pass one of those" in err
     (tmp_path / "empty").mkdir()
     err = _refused(["--agent", str(tmp_path / "empty" / "best_model.zip")], capsys, monkeypatch)
-    assert f"{tmp_path / 'empty'} holds no model (.zip)" in err
+    assert f"{tmp_path / 'empty'} holds no model (.zip, or a JAX run's .npz)" in err
 
 
 # ---------------------------------------------------------------------- command-line errors

@@ -41,7 +41,7 @@ from sail_env.core.state import Slot
 
 # Numba's cache follows this file alone: the line below (tests/test_numba_cache.py) changes it when
 # a file whose code or constants its compiled functions take in changes, so that they compile again.
-# compiled in: sail_env/core/delay.py sail_env/core/reward.py sail_env/core/state.py sail_env/jit.py sail_env/physics/pointing.py sha256:524574e5c8178613
+# compiled in: sail_env/core/delay.py sail_env/core/reward.py sail_env/core/state.py sail_env/jit.py sail_env/physics/pointing.py sha256:585df32ab16a526e
 
 OBSERVATION_LIMIT = 1e3
 #: Environments a step takes together through each stage (their scratch stays in the L1 cache).

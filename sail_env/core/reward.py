@@ -82,5 +82,7 @@ def log_ratio(pointing: np.ndarray) -> np.ndarray:
 
 def succeeded(pointing_rad: np.ndarray) -> np.ndarray:
     """Whether each flight at cut-off points within the tolerance (inf for a divergence, NaN for an
-    episode still running: both fail). The only place success is decided."""
-    return np.asarray(pointing_rad) <= POINTING_TOLERANCE_RAD
+    episode still running: both fail). The only place success is decided, for both backends: an
+    array (NumPy's, or JAX's under ``jit``) is compared as it is, anything else as a NumPy array."""
+    pointing = pointing_rad if hasattr(pointing_rad, "dtype") else np.asarray(pointing_rad)
+    return pointing <= POINTING_TOLERANCE_RAD

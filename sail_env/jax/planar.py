@@ -23,10 +23,9 @@ from flax import struct
 from gymnax.environments import environment, spaces
 
 from sail_env.core.episode import OBSERVATION_LIMIT
-from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS
+from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, succeeded
 from sail_env.core.spec import EpisodeSpec
 from sail_env.jax.arith import divide, log_ratio, ordered_dot
-from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 
 
 @struct.dataclass
@@ -176,7 +175,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     @staticmethod
     def scores(state: EnvState) -> dict[str, jax.Array]:
         """What the Gym envs report at an episode's end (meaningful once ``terminated``)."""
-        return {"is_success": state.pointing <= POINTING_TOLERANCE_RAD, "terminal_pointing_rad": state.pointing,
+        return {"is_success": succeeded(state.pointing), "terminal_pointing_rad": state.pointing,
                 "diverged": state.diverged, "envelope_rad": state.envelope}
 
     def is_truncated(self, state: EnvState, params: EnvParams) -> jax.Array:
@@ -214,7 +213,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         velocity = final[jnp.array(self.velocity_rows)]
         pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), params.speed_at_cutoff)
         scored = state.terminated & ~state.diverged
-        bonus = jnp.where(pointing <= POINTING_TOLERANCE_RAD, SUCCESS_BONUS, 0.0)
+        bonus = jnp.where(succeeded(pointing), SUCCESS_BONUS, 0.0)
         reward = jnp.where(scored, state.reward + (-log_ratio(pointing) + bonus), state.reward)
         diverged = state.diverged | (scored & coast_lost)
         reward = jnp.where(diverged, DIVERGENCE_PENALTY, reward)
