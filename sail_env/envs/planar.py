@@ -120,7 +120,7 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     | ``max_beam_offset_m`` | 0.02 | beam offset at action +1 |
     | ``max_beam_tilt_rad`` | 0.002 | beam tilt at action +1 |
     | ``start_half_widths`` | see above | uniform start half-widths ``(X, Vx, θ, ω)`` |
-    | ``sensor_noise_std``, ``beam_jitter_m``, ``push_noise``, ``cutoff_jitter_s``, ``light_delay``, ``parameter_spread`` | off | see :class:`Disturbances` |
+    | ``sensor_noise_std``, ``beam_jitter_m``, ``push_noise``, ``cutoff_jitter_s``, ``light_delay``, ``parameter_spread`` | off | see :class:`~sail_env.physics.randomisation.Randomisation`; ``light_delay``: :class:`~sail_env.core.EpisodeSpec` |
     | ``render_mode`` | None | ``"rgb_array"``; ``gym.make(..., render_mode="human")`` shows its frames in a window through Gymnasium's ``HumanRendering`` (needs pygame) |
 
     ``info["state"]`` holds the true state in SI (``x``, ``vx``, ``theta``, ``omega``) and

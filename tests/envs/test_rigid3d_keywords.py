@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
-from sail_env.core.spec import Disturbances, task_spec
+from sail_env.core.spec import task_spec
+from sail_env.physics import randomisation
 from sail_env.envs import params
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.rigid3d import LightSail3DEnv
@@ -82,8 +83,8 @@ def env_keywords() -> list[str]:
     registered random disturbances' (the 3D sail carries them all)."""
     own = list(params.keywords(params.Rigid3DParams))
     shared = [name for name in inspect.signature(task_spec).parameters
-              if name not in ("make_plant", "default_start_half_widths", "disturbances")]
-    episode = [field.name for field in dataclasses.fields(Disturbances) if field.name != "sources"]
+              if name not in ("make_plant", "default_start_half_widths", "randomness")]
+    episode = list(randomisation.FIELDS)
     return own + shared + episode + list(disturbances.keywords())
 
 
