@@ -218,9 +218,9 @@ def test_reset_options_are_parsed_the_same_way_by_both_envs(env_id, vector):
     env = (gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point") if vector
            else gym.make(env_id))
     for options in ([("initial_state", {})], "initial_state", 3):
-        with pytest.raises(ValueError, match=r"^options must be None or a dict with keys among \('initial_state',\)"):
+        with pytest.raises(ValueError, match=r"^options must be None or a dict with keys among \('initial_state', 'params'\)"):
             env.reset(seed=0, options=options)
-    with pytest.raises(ValueError, match=r"^options keys must be among \('initial_state',\), got 'initial_states'$"):
+    with pytest.raises(ValueError, match=r"^options keys must be among \('initial_state', 'params'\), got 'initial_states'$"):
         env.reset(seed=0, options={"initial_states": {"x": 1e-3}})
     with pytest.raises(ValueError, match=r"^initial_state keys must be among .*, got 1$"):
         env.reset(seed=0, options={"initial_state": {"x": 1e-3, 1: 0.0}})
