@@ -75,7 +75,7 @@ def lqg_design(spec: EpisodeSpec, a: np.ndarray, b: np.ndarray, constant: np.nda
     # The constant term c as an input held at 1: its exact step drive ∫Φ c.
     drift = zoh_discretize(model.A, np.asarray(constant, dtype=float)[:, None], dt)[1][:, 0]
     gain = lqr_gain(model, dt, scale, spec.action_scale, input_weight, state_weights(spec))
-    dist = spec.disturbances
+    dist = spec.randomisation
     a_push, _ = spec.nominal.push_sensitivity
     push_kick = a_push @ scale * dt
     process = (spec.window_step_noise(gamma)

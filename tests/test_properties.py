@@ -14,7 +14,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sail_env.core.spec import MAX_PARAMETER_SPREAD, MAX_PUSH_NOISE
+from sail_env.physics.randomisation import MAX_PARAMETER_SPREAD, MAX_PUSH_NOISE
 from sail_env.envs import LightSailEnv
 from sail_env.physics import SEED
 

@@ -58,11 +58,11 @@ class EpisodeCore:
 
     def __init__(self, spec: EpisodeSpec, num_envs: int) -> None:
         self.spec, self.num_envs = spec, num_envs
-        plant, n, dist = spec.plant, num_envs, spec.disturbances
+        plant, n, dist = spec.plant, num_envs, spec.randomisation
         ns, m = plant.n_states, plant.n_inputs
         params = plant.params(np.ones((n, plant.n_factors)))
         cols = params.step.shape[-1]
-        delayed = dist.light_delay
+        delayed = spec.light_delay
         # Standard normals of the window, drawn at reset: jitter and push per step, sensor per observation.
         # Steps run from lag0 before control to the last command's arrival: at most n + 2 max_delay.
         self.noise_steps = w = spec.n_steps + 2 * spec.max_delay + 2
@@ -133,7 +133,7 @@ class EpisodeCore:
 
         ``initial_states`` (k, n) replaces the drawn launch states.
         """
-        spec, plant, dist, state = self.spec, self.spec.plant, self.spec.disturbances, self.state
+        spec, plant, dist, state = self.spec, self.spec.plant, self.spec.randomisation, self.state
         k, n_states = len(index), plant.n_states
         # One uniform call per environment (the same numbers as separate calls, in the same order):
         # the parameter factors, the cut-off's jitter, the launch state.
@@ -192,7 +192,7 @@ class EpisodeCore:
         state.step[index] = 0
         state.finished[index] = 0
         state.x[index] = x
-        if dist.light_delay:
+        if spec.light_delay:
             state.lag0[index] = lag0
             state.delay[index] = spec.delay_steps(np.arange(state.delay.shape[1]), params.acceleration[:, None])
             state.commands[index] = 0.0
@@ -270,7 +270,7 @@ class EpisodeCore:
         the last command held to cut-off. Returns the end states, the held inputs and divergence."""
         spec, plant, state = self.spec, self.spec.plant, self.state
         params = state.params.take(index)
-        if spec.disturbances.light_delay:
+        if spec.light_delay:
             x, step = np.empty((len(index), plant.n_states)), np.empty(len(index), dtype=np.int64)
             kernels.in_flight(index, x, step, state.floats, state.ints, state.layout, self.consts, state.params.step,
                               self._block, self._pad)

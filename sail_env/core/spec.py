@@ -1,9 +1,9 @@
 """What defines a task apart from its physics: timing, action and observation scales, start
-distribution, disturbances. Controllers read it instead of an env's internals."""
+distribution, light delay and randomisation (:mod:`sail_env.physics.randomisation`). Controllers read
+it instead of an env's internals."""
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -14,106 +14,35 @@ from sail_env.core.delay import delay_steps
 from sail_env.core.plant import Plant
 from sail_env.physics.checks import check_below_light_speed, real_number
 from sail_env.physics.disturbance import Disturbance
-from sail_env.physics.disturbances import split_keywords
 from sail_env.physics.mission import one_way_light_delay_s
+from sail_env.physics.randomisation import Randomisation, finite_nonnegative, randomisation
 
 #: Observation scales: the state is divided by these (rates by the model's fastest rate too).
 POSITION_SCALE_M = 1e-2
 TILT_SCALE_RAD = 1e-3
 #: Round-off allowed between times computed as ``start + steps · dt`` and configured times.
 TIME_TOLERANCE_S = 1e-9
-#: Largest relative push noise per step: a laser cannot pull, and beyond 0.25 a 4σ step would
-#: reverse the push (the per-step expansion in the push error, docs/physics.md §4, also loses
-#: its accuracy there).
-MAX_PUSH_NOISE = 0.25
-#: What builds a task's plant from its physical disturbances: ``make_plant(parameter_spread,
-#: push_noise, sources)`` (``sources``: :attr:`Disturbances.sources`), e.g.
-#: ``functools.partial(PlanarPlant, config)``.
+#: What builds a task's plant from its physical randomness: ``make_plant(parameter_spread,
+#: push_noise, sources)`` (``sources``: :attr:`~sail_env.physics.randomisation.Randomisation.sources`),
+#: e.g. ``functools.partial(PlanarPlant, config)``.
 PlantFactory = Callable[[float, float, tuple[Disturbance, ...]], Plant]
-#: Largest ``parameter_spread`` (exclusive): a factor ``1 − s`` must leave every length and mass positive.
-MAX_PARAMETER_SPREAD = 0.5
-
-
-def finite_nonnegative(values: object, name: str, count: int | None = None) -> tuple[float, ...]:
-    """Finite real numbers ``>= 0`` (``count`` of them if given: one per state), or ``ValueError``."""
-    items = list(values) if isinstance(values, (Sequence, np.ndarray)) and not isinstance(values, str) else None
-    if items is None or (count is not None and len(items) != count):
-        raise ValueError(f"{name} must be {count or 'a sequence of'} real numbers, got {values!r}")
-    numbers = tuple(real_number(v, f"{name}[{i}]") for i, v in enumerate(items))
-    if not all(math.isfinite(v) and v >= 0 for v in numbers):
-        raise ValueError(f"{name} must be finite values >= 0, got {numbers}")
-    return numbers
-
-
-@dataclasses.dataclass(frozen=True)
-class Disturbances:
-    """What a ground station faces. Every field is off (zero / False) by default.
-
-    Attributes:
-        sensor_noise_std: Standard deviation of the measurement of each state component
-            (planar ``(X [m], Vx [m/s], θ [rad], ω [rad/s])``; one per state of the plant),
-            white, per observation (any finite size: the observation saturates at ±1e3).
-        push_noise: Relative standard deviation of the push ``F`` per control step; the
-            same spectral density acts over the coast. At most :data:`MAX_PUSH_NOISE`.
-        cutoff_jitter_s: Half-width of a uniform draw of the beam cut-off time around
-            its nominal value; a few ms already randomise the oscillation's phase. The
-            earliest cut-off must come after the last command has arrived.
-        light_delay: Delay observations and commands by the light travel time
-            ``D(t)/c`` each way, rounded to whole control steps (a bool). The round trip at
-            the end of the window must not exceed the window.
-        parameter_spread: Relative half-width of a uniform per-episode draw of each mass,
-            the strut and CoM lengths and the radius of curvature, in ``[0, 0.5)``; every
-            draw must be a valid :class:`SailConfig` (checked at the corners of the box).
-        sources: The registered random disturbances (:mod:`sail_env.physics.disturbances`: the
-            beam's landing jitter ``beam_jitter_m``, the ground's pointing jitter, dust), which
-            the plant carries; :func:`task_spec` makes them of their keywords.
-
-    Numbers may be ints, floats or NumPy real scalars; bools and strings are refused.
-    """
-
-    sensor_noise_std: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    push_noise: float = 0.0
-    cutoff_jitter_s: float = 0.0
-    light_delay: bool = False
-    parameter_spread: float = 0.0
-    sources: tuple[Disturbance, ...] = ()
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "sensor_noise_std", finite_nonnegative(self.sensor_noise_std, "sensor_noise_std"))
-        for name in ("push_noise", "cutoff_jitter_s", "parameter_spread"):
-            value = real_number(getattr(self, name), name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be finite and >= 0, got {value}")
-            object.__setattr__(self, name, value)
-        if not isinstance(self.light_delay, (bool, np.bool_)):
-            raise ValueError(f"light_delay must be True or False, got {self.light_delay!r}")
-        object.__setattr__(self, "light_delay", bool(self.light_delay))
-        if self.push_noise > MAX_PUSH_NOISE:
-            raise ValueError(f"push_noise must be <= {MAX_PUSH_NOISE} (a 4σ step would reverse the push), "
-                             f"got {self.push_noise}")
-        if not self.parameter_spread < MAX_PARAMETER_SPREAD:
-            raise ValueError(f"parameter_spread must be in [0, {MAX_PARAMETER_SPREAD}), got {self.parameter_spread}")
-        if not all(isinstance(source, Disturbance) for source in self.sources):
-            raise ValueError(f"sources must be Disturbance instances (sail_env.physics.disturbances), got {self.sources!r}")
-        object.__setattr__(self, "sources", tuple(self.sources))
-
-    @property
-    def any_sensor_noise(self) -> bool:
-        return any(s > 0 for s in self.sensor_noise_std)
 
 
 class EpisodeSpec:
     """A task: the plant and everything the episode core adds to it (validated here).
 
     The spec knows no concrete sail model: the env that builds it passes the plant's factory
-    (:data:`PlantFactory`), which receives the physical disturbances.
+    (:data:`PlantFactory`), which receives the physical randomness.
 
     Attributes:
         config: The plant's configuration (its timing: ``control_start_s``, ``control_step_s``,
             ``control_steps``, ``beam_cutoff_s``).
         plant: The batched physics (the :class:`~sail_env.core.plant.Plant` contract).
         nominal: The nominal linear model (what a controller designs on).
-        disturbances: The :class:`Disturbances`.
+        randomisation: The :class:`~sail_env.physics.randomisation.Randomisation`.
+        light_delay: Whether observations and commands are delayed by the light travel time
+            ``D(t)/c`` each way, rounded to whole control steps. The round trip at the end of the
+            window must not exceed the window.
         dt, n_steps: Control step [s] and number of steps in the control window.
         action_scale: Physical input at action +1 (planar ``(d [m], ψ [rad])``).
         state_scale: Divides the SI state in the observation.
@@ -126,26 +55,29 @@ class EpisodeSpec:
 
     def __init__(self, make_plant: PlantFactory, *, start_half_widths: Sequence[float],
                  max_beam_offset_m: float = 0.02, max_beam_tilt_rad: float = 2e-3,
-                 disturbances: Disturbances = Disturbances()) -> None:
+                 light_delay: bool = False, randomisation: Randomisation = Randomisation()) -> None:
         scales = [real_number(v, name) for name, v in (("max_beam_offset_m", max_beam_offset_m),
                                                       ("max_beam_tilt_rad", max_beam_tilt_rad))]
         for name, value in zip(("max_beam_offset_m", "max_beam_tilt_rad"), scales):
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
-        self.disturbances = disturbances
-        self.plant: Plant = make_plant(disturbances.parameter_spread, disturbances.push_noise, disturbances.sources)
+        if not isinstance(light_delay, (bool, np.bool_)):
+            raise ValueError(f"light_delay must be True or False, got {light_delay!r}")
+        self.light_delay = bool(light_delay)
+        self.randomisation = randomisation
+        self.plant: Plant = make_plant(randomisation.parameter_spread, randomisation.push_noise, randomisation.sources)
         self.config = config = self.plant.config
         n = self.plant.n_states
         widths = finite_nonnegative(start_half_widths, "start_half_widths", n)
-        if disturbances.any_sensor_noise and len(disturbances.sensor_noise_std) != n:
-            raise ValueError(f"sensor_noise_std must be {n} values (one per state), got {disturbances.sensor_noise_std}")
+        if randomisation.any_sensor_noise and len(randomisation.sensor_noise_std) != n:
+            raise ValueError(f"sensor_noise_std must be {n} values (one per state), got {randomisation.sensor_noise_std}")
         self.nominal = self.plant.nominal
         self.dt = config.control_step_s
         self.n_steps = config.control_steps
         physical = {"m": scales[0], "rad": scales[1], **self.plant.input_ranges}
         self.action_scale = np.array([physical[unit] for unit in self.plant.input_units])
         self.start_half_widths = np.array(widths)
-        self.sensor_noise_std = np.array(disturbances.sensor_noise_std) if disturbances.any_sensor_noise else np.zeros(n)
+        self.sensor_noise_std = np.array(randomisation.sensor_noise_std) if randomisation.any_sensor_noise else np.zeros(n)
         # A sail with no stiffness at all (neutral, in a spot wider than it) has no rate of its own: the
         # window's inverse then, so that no observation divides by zero.
         rate = self.plant.rate_scale() or 1.0 / (self.n_steps * self.dt)
@@ -153,7 +85,7 @@ class EpisodeSpec:
                   "rad/s": TILT_SCALE_RAD * rate}
         self.state_scale = np.array([scales[unit] for unit in self.plant.state_units])
         fastest = self.plant.max_acceleration_m_s2
-        if disturbances.light_delay:
+        if self.light_delay:
             self._check_round_trip(fastest)
             self.history_length = 2 * (int(self.delay_steps(self.n_steps)) + 1)
             self.max_delay = int(delay_steps(fastest, config.control_start_s, self.dt,
@@ -162,7 +94,7 @@ class EpisodeSpec:
             self.history_length = self.max_delay = 0
         self._check_cutoff()
         settings = self.plant.light_speed_settings
-        check_below_light_speed(fastest, config.beam_cutoff_s + disturbances.cutoff_jitter_s,
+        check_below_light_speed(fastest, config.beam_cutoff_s + randomisation.cutoff_jitter_s,
                                 f"{settings} (fastest draw of parameter_spread, latest of cutoff_jitter_s)",
                                 settings.replace(" and ", " or "))
         self.start_limits = self.plant.start_limits()
@@ -201,7 +133,7 @@ class EpisodeSpec:
     def _check_cutoff(self) -> None:
         """The earliest cut-off must come after the last command has reached the sail (to within
         :data:`TIME_TOLERANCE_S`, so that a window ending exactly at the cut-off is accepted)."""
-        c, jitter = self.config, self.disturbances.cutoff_jitter_s
+        c, jitter = self.config, self.randomisation.cutoff_jitter_s
         last_arrival = c.control_start_s + (self.n_steps + self.max_delay) * self.dt
         largest = c.beam_cutoff_s - last_arrival
         if largest < -TIME_TOLERANCE_S:
@@ -222,7 +154,7 @@ class EpisodeSpec:
 
     def window_step_noise(self, gamma: np.ndarray) -> np.ndarray:
         """Covariance (n, n) of the state change that the beam offsets and the impacts
-        (:attr:`Disturbances.sources`) cause over one control step of the nominal sail in the
+        (:attr:`Randomisation.sources <sail_env.physics.randomisation.Randomisation.sources>`) cause over one control step of the nominal sail in the
         window's middle, ``gamma`` (n, m) being the step's input matrix: ``σ² Γ_J Γ_Jᵀ`` over the
         jittered inputs ``J``, plus ``rate · dt · kick²`` on the impulse rows. What a design's
         process noise takes of them (the push noise, which multiplies the state, is the design's own)."""
@@ -256,7 +188,7 @@ class EpisodeSpec:
     def delay_steps(self, step: np.ndarray | int, acceleration_m_s2: np.ndarray | float | None = None) -> np.ndarray:
         """One-way light delay in steps at control ``step`` (zero without light delay); see
         :func:`sail_env.core.delay.delay_steps`. The nominal acceleration unless given."""
-        if not self.disturbances.light_delay:
+        if not self.light_delay:
             return np.zeros(np.shape(step), dtype=np.int64)
         accel = self.plant.acceleration_m_s2 if acceleration_m_s2 is None else acceleration_m_s2
         return delay_steps(accel, self.config.control_start_s, self.dt, step)
@@ -272,16 +204,15 @@ class EpisodeSpec:
 
 def task_spec(make_plant: PlantFactory, default_start_half_widths: Sequence[float], *,
               start_half_widths: Sequence[float] | None = None, max_beam_offset_m: float = 0.02,
-              max_beam_tilt_rad: float = 2e-3, **disturbances: object) -> EpisodeSpec:
+              max_beam_tilt_rad: float = 2e-3, light_delay: bool = False, **randomness: object) -> EpisodeSpec:
     """The spec of an env's episode keywords: the beam limits, the start box (the env's
-    ``default_start_half_widths`` unless given), the :class:`Disturbances` by their field names and
-    the registered random disturbances by theirs (:mod:`sail_env.physics.disturbances`). The one
-    place every env's shared keywords are spelled out (their table is in :class:`Disturbances`,
-    the disturbances' modules and the env docstrings); an unknown one is a ``TypeError`` naming it."""
-    sources, episode = split_keywords(disturbances)
-    unknown = sorted(set(episode) - {field.name for field in dataclasses.fields(Disturbances)} - {"sources"})
+    ``default_start_half_widths`` unless given), the light delay and the randomisation's keywords
+    (:mod:`sail_env.physics.randomisation`: its own and the registered disturbances'). The one place
+    every env's shared keywords are spelled out (their table is in the randomisation's module and the
+    env docstrings); an unknown one is a ``TypeError`` naming it."""
+    given, unknown = randomisation(randomness)
     if unknown:
-        raise TypeError(f"unexpected keyword argument {unknown[0]!r}")
+        raise TypeError(f"unexpected keyword argument {sorted(unknown)[0]!r}")
     widths = default_start_half_widths if start_half_widths is None else start_half_widths
     return EpisodeSpec(make_plant, start_half_widths=widths, max_beam_offset_m=max_beam_offset_m,
-                       max_beam_tilt_rad=max_beam_tilt_rad, disturbances=Disturbances(**episode, sources=sources))
+                       max_beam_tilt_rad=max_beam_tilt_rad, light_delay=light_delay, randomisation=given)

@@ -5,8 +5,9 @@ checking the ranges they define) and documented by the env's ``## Arguments`` ta
 ``tests/envs/test_rigid3d_keywords.py`` holds against these fields and defaults.
 
 The episode keywords every family shares (:func:`sail_env.core.spec.task_spec`: the action scale,
-the start box, the episode's noise and delay) and the registered random disturbances'
-(:mod:`sail_env.physics.disturbances`) are declared where they act, not here.
+the start box, the light delay) and the randomisation's (:mod:`sail_env.physics.randomisation`: the
+parameter spread, the noise, the cut-off jitter, the registered random disturbances) are declared
+where they act, not here; ``model_uncertainty``, which changes the sail model, is the 3D params'.
 """
 
 from __future__ import annotations

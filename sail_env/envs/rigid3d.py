@@ -118,9 +118,13 @@ class LightSail3DEnv(LightSailEnv):
     | ``control_start_s`` | 0 | flight time at which control starts | ``≥ 0``, the window ending before the cut-off |
     | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 | finite, ``> 0`` |
     | ``start_half_widths`` | see above | 8 half-widths in state order | the box's corner inside the start limits (``√(x² + y²) ≤ a`` and so on) |
-    | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.core.Disturbances` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
+    | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.physics.randomisation.Randomisation`; ``light_delay``: :class:`~sail_env.core.EpisodeSpec` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power | ``[0, 0.5)`` |
     | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v1``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``[0, a]``: a constant offset beyond the rim centres the spot off the sail |
+
+    ``reset(options={"params": {...}})`` changes these keywords for this and the later episodes, as
+    :class:`~sail_env.envs.planar.LightSailEnv`'s Reset Options say (a
+    :class:`~sail_env.envs.params.Rigid3DParams` sets all of the 3D ones).
 
     Numbers may be ints, floats or NumPy real scalars; bools (except for the bool keywords and
     ``power_control``), strings and arrays are refused, each with one ``ValueError`` naming the keyword
@@ -187,11 +191,13 @@ class LightSail3DEnv(LightSailEnv):
     * v0 (lightsail-gym 0.1.0): initial release.
     """
 
+    make_spec = staticmethod(rigid3d_spec)
+
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        self._start(rigid3d_spec(**kwargs), render_mode)
+        self._start(kwargs, render_mode)
 
 
 def rigid3d_vector_env(num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> LightSailVectorEnv:
-    """The vector entry point of the 3D ids: :class:`LightSailVectorEnv` of the same spec."""
-    return LightSailVectorEnv.from_spec(rigid3d_spec(**kwargs), num_envs, render_mode)
+    """The vector entry point of the 3D ids: :class:`LightSailVectorEnv` of the same keywords."""
+    return LightSailVectorEnv.of_keywords(rigid3d_spec, kwargs, num_envs, render_mode)
 

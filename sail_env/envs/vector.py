@@ -1,5 +1,5 @@
-"""``LightSailVectorEnv``: N light sails stepped as one NumPy batch (planar, or any task's spec
-through :meth:`LightSailVectorEnv.from_spec`).
+"""``LightSailVectorEnv``: N light sails stepped as one NumPy batch (planar, any family's keywords
+through :meth:`LightSailVectorEnv.of_keywords`, or a bare spec through :meth:`LightSailVectorEnv.from_spec`).
 
 The same episode core (:class:`~sail_env.core.EpisodeCore`) as :class:`LightSailEnv`,
 with N environments: environment ``i`` seeded with ``seed + i`` plays exactly the
@@ -31,7 +31,7 @@ from gymnasium.vector.utils import batch_space
 from sail_env.core.episode import OBSERVATION_LIMIT, EpisodeCore
 from sail_env.core.spec import EpisodeSpec
 from sail_env.core.state import EpisodeState
-from sail_env.envs.options import reset_seeds, reset_states
+from sail_env.envs.options import SpecMaker, parse_reset
 from sail_env.envs.planar import planar_spec
 from sail_env.physics.planar.config import SailConfig
 
@@ -43,21 +43,33 @@ class LightSailVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1, config: SailConfig | str = "seed", render_mode: str | None = None,
                  **keywords: Any) -> None:
-        self._start(planar_spec(config, **keywords), num_envs, render_mode)
+        self._start(num_envs, render_mode, planar_spec, {"config": config, **keywords})
+
+    @classmethod
+    def of_keywords(cls, make_spec: SpecMaker, keywords: dict[str, Any], num_envs: int = 1,
+                    render_mode: str | None = None) -> LightSailVectorEnv:
+        """N episodes of the task ``make_spec(**keywords)`` (how the 3D ids get their vector env)."""
+        envs = cls.__new__(cls)
+        envs._start(num_envs, render_mode, make_spec, keywords)
+        return envs
 
     @classmethod
     def from_spec(cls, spec: EpisodeSpec, num_envs: int = 1, render_mode: str | None = None) -> LightSailVectorEnv:
-        """N episodes of any task's :class:`EpisodeSpec` (how the 3D tasks get their vector env)."""
+        """N episodes of any task's :class:`EpisodeSpec`; it knows no keywords, so that ``reset`` cannot
+        change them (``options["params"]`` is refused)."""
         envs = cls.__new__(cls)
-        envs._start(spec, num_envs, render_mode)
+        envs._start(num_envs, render_mode, None, None, spec)
         return envs
 
-    def _start(self, spec: EpisodeSpec, num_envs: int, render_mode: str | None) -> None:
+    def _start(self, num_envs: int, render_mode: str | None, make_spec: SpecMaker | None,
+               keywords: dict[str, Any] | None, spec: EpisodeSpec | None = None) -> None:
+        """Set up the spaces and the core of the task ``make_spec(**keywords)`` (or of a bare ``spec``)."""
+        spec = make_spec(**keywords) if spec is None else spec
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if render_mode is not None:
             raise ValueError(f"LightSailVectorEnv does not render; render_mode must be None, got {render_mode!r}")
-        self.episode_spec = spec
+        self.make_spec, self.keywords, self.episode_spec = make_spec, keywords, spec
         self.num_envs = int(num_envs)
         self.render_mode = None
         self.single_action_space = spaces.Box(-1.0, 1.0, (spec.plant.n_inputs,), np.float32)
@@ -81,14 +93,20 @@ class LightSailVectorEnv(VectorEnv):
 
         ``options={"initial_state": {...}}`` starts every environment from that state
         (``LightSailEnv``'s keys), ``{"initial_state": array (N, n)}`` each from its row.
+        ``options={"params": {...}}`` changes the task of every environment (one task for the batch)
+        for these episodes and the later ones, the autoreset's too, as ``LightSailEnv``'s Reset Options
+        say: environment ``i`` then plays as a vector env made with those keywords; a refused reset
+        changes nothing. A vector env made by :meth:`from_spec` knows no keywords and refuses it.
         """
-        # Both arguments checked before anything changes: a refused reset leaves the envs as they were.
-        seeds = reset_seeds(seed, self.num_envs)
-        given = reset_states(options, self.episode_spec, self.num_envs, arrays=True)
-        super().reset(seed=seeds[0])
+        # Every argument checked before anything changes: a refused reset leaves the envs as they were.
+        checked = parse_reset(seed, options, self.num_envs, True, self.episode_spec, self.keywords, self.make_spec)
+        if checked.keywords is not None:
+            self.keywords, self.episode_spec = checked.keywords, checked.spec
+            self.core = EpisodeCore(checked.spec, self.num_envs)
+        super().reset(seed=checked.seeds[0])
         if self._rngs is None or seed is not None:
-            self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        self.core.reset(self._all, self._rngs, given)
+            self._rngs = [seeding.np_random(s)[0] for s in checked.seeds]
+        self.core.reset(self._all, self._rngs, checked.states)
         return self.core.observe(), {"state": self.state.x.copy(), "t": self._times()}
 
     def _times(self) -> np.ndarray:

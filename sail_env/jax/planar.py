@@ -67,9 +67,9 @@ def params_of(spec: EpisodeSpec, dtype: jnp.dtype = jnp.float64) -> EnvParams:
     """The :class:`EnvParams` of a planar task's spec (its nominal model: no spread), its arrays
     (and so the episode's arithmetic) in ``dtype``: float64 is the Numba core's; float32 is faster
     on accelerators, its error measured in ``tests/jax/test_planar_jax.py`` and docs/performance.md."""
-    plant, dist = spec.plant, spec.disturbances
+    plant, dist = spec.plant, spec.randomisation
     missing = [name for name, on in (("push_noise", dist.push_noise), ("sensor_noise_std", dist.any_sensor_noise),
-                                     ("cutoff_jitter_s", dist.cutoff_jitter_s), ("light_delay", dist.light_delay),
+                                     ("cutoff_jitter_s", dist.cutoff_jitter_s), ("light_delay", spec.light_delay),
                                      ("parameter_spread", dist.parameter_spread), ("random disturbances", dist.sources))
                if on]
     if missing or plant.biased:

@@ -2,7 +2,8 @@
 
 Siblings, none the base of another: the generic linear machinery (:mod:`.linear`,
 :mod:`.linear_plant`, :mod:`.noise`, :mod:`.pointing`), the validators (:mod:`.checks`), the seed's
-design point (:mod:`.seed`), the random disturbances (:mod:`.disturbance`, :mod:`.disturbances`),
+design point (:mod:`.seed`), an episode's randomisation (:mod:`.randomisation`, with the random
+disturbances: :mod:`.disturbance`, :mod:`.disturbances`),
 and one package per sail model: :mod:`.planar` and :mod:`.rigid3d`. The names below are the
 planar model's, kept here for short imports.
 """

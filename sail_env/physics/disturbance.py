@@ -15,8 +15,8 @@ combines the active disturbances of each channel, and nothing else needs to know
 Independent beam offsets add in variance (the plant's ``jitter_std`` is their ``hypot``). Over the
 coast each acts as white noise of the same intensity: ``σ² dt`` for a beam offset, ``rate × σ²``
 for the impulses (docs/physics.md §11, §15). The push noise, the sensor noise, the cut-off's
-jitter, the light delay and the parameter spread are the episode's own settings
-(:class:`sail_env.core.spec.Disturbances`): each has its own place in the step.
+jitter and the parameter spread are the rest of the episode's randomisation
+(:mod:`sail_env.physics.randomisation`, the one table of every random keyword): each has its own place in the step.
 
 The registered disturbances are in :mod:`sail_env.physics.disturbances` (one module each), which
 imports them and reads the filled registry (:func:`~sail_env.physics.disturbances.split_keywords`):

@@ -65,7 +65,7 @@ def test_kalman_gain_is_the_covariance_recursion_fixed_point(env_id, kwargs):
     ``∂A/∂ln F`` over one step at the state scale, and a model-mismatch floor of 3e-3 state scales;
     sensor noise: the task's, floored at 1e-6 state scales (agents/lqg.py's docstring)."""
     spec = gym.make(env_id, **kwargs).unwrapped.episode_spec
-    dist, scale = spec.disturbances, spec.state_scale
+    dist, scale = spec.randomisation, spec.state_scale
     phi, gamma = spec.nominal.discretize(spec.dt)
     kick = spec.nominal.push_sensitivity[0] @ scale * spec.dt
     jitter = {**TASKS[env_id], **kwargs}.get("beam_jitter_m", 0.0)

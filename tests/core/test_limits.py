@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
-from sail_env.core.spec import MAX_PUSH_NOISE, Disturbances, task_spec
+from sail_env.core.spec import task_spec
+from sail_env.physics.randomisation import MAX_PUSH_NOISE, Randomisation
 from sail_env.envs import LightSailEnv
 from sail_env.envs.vector import LightSailVectorEnv
 from sail_env.physics import DEEP_DISH, FLAT, SEED, SailConfig
@@ -320,13 +321,13 @@ def test_misread_vector_actions_are_refused_naming_the_shape(actions):
         envs.step(actions)
 
 
-def test_disturbances_hold_the_sensor_noise_as_four_floats():
+def test_randomisation_holds_the_sensor_noise_as_four_floats():
     """However given (a list, NumPy numbers), the sensor noise is kept as a tuple of four floats: the
     same task compares equal and hashes alike."""
-    given = Disturbances(sensor_noise_std=[np.float32(1e-4), 0, 0, np.int64(1)])
+    given = Randomisation(sensor_noise_std=[np.float32(1e-4), 0, 0, np.int64(1)])
     assert given.sensor_noise_std == (float(np.float32(1e-4)), 0.0, 0.0, 1.0)
     assert all(type(v) is float for v in given.sensor_noise_std)
-    same = Disturbances(sensor_noise_std=given.sensor_noise_std)
+    same = Randomisation(sensor_noise_std=given.sensor_noise_std)
     assert given == same and hash(given) == hash(same)
 
 
@@ -338,6 +339,6 @@ def test_negative_disturbance_sizes_are_refused(name):
 
 
 def test_parameter_spread_range_is_half_open():
-    Disturbances(parameter_spread=0.4999)
+    Randomisation(parameter_spread=0.4999)
     with pytest.raises(ValueError, match=r"parameter_spread must be in \[0, 0.5\), got 0.5"):
-        Disturbances(parameter_spread=0.5)
+        Randomisation(parameter_spread=0.5)

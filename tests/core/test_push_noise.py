@@ -12,7 +12,7 @@ from sail_env.physics.planar.model import push_sensitivity
 
 def _window(spec, x0, actions, normals, exact):
     """The control window's end states with per-step push errors σ·normals, exact or expanded."""
-    plant, sigma = spec.plant, spec.disturbances.push_noise
+    plant, sigma = spec.plant, spec.randomisation.push_noise
     params = plant.params(np.ones((1, 5)))
     a_push, b_push = push_sensitivity(params.a[0], params.b[0])
     x = x0.copy()

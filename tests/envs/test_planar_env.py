@@ -245,7 +245,7 @@ def test_planar_spec_defaults_are_those_of_the_default_env():
     from sail_env.envs.planar import planar_spec
 
     default, env_spec = planar_spec(), LightSailEnv().episode_spec
-    assert default.config == env_spec.config == SEED and default.disturbances == env_spec.disturbances
+    assert default.config == env_spec.config == SEED and default.randomisation == env_spec.randomisation and default.light_delay == env_spec.light_delay
     np.testing.assert_array_equal(default.action_scale, env_spec.action_scale)
     np.testing.assert_array_equal(default.start_half_widths, env_spec.start_half_widths)
 

@@ -13,13 +13,23 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
+from sail_env.physics.planar.config import DEEP_DISH
 from tests.envs.test_copies import assert_same
 
 #: Every disturbance (its generator draws at reset and over the coast), on the planar sail: cheap.
 ENV_ID = "LightSailRealistic-v0"
 BAD_RESETS = [{"seed": 2, "options": {"bad": 1}}, {"seed": 2, "options": {"initial_state": {"x": math.nan}}},
               {"seed": 2, "options": {"initial_state": {"x": 10.0}}}, {"seed": 2, "options": [1]},
-              {"seed": -1}, {"seed": 1.5}]
+              {"seed": -1}, {"seed": 1.5},
+              # options["params"] (sail_env.envs.options): a bad value, an unknown keyword, a space's change
+              # (the light delay's, directly and through the timing), and good params with a refused start
+              # or seed, which must not stay applied
+              {"seed": 2, "options": {"params": {"push_noise": -0.1}}},
+              {"seed": 2, "options": {"params": {"bogus": 1}}}, {"seed": 2, "options": {"params": 3}},
+              {"seed": 2, "options": {"params": {"light_delay": False}}},
+              {"seed": 2, "options": {"params": {"config": DEEP_DISH.replace(control_start_s=20.0)}}},
+              {"seed": 2, "options": {"params": {"parameter_spread": 0.2}, "initial_state": {"x": 10.0}}},
+              {"seed": -1, "options": {"params": {"parameter_spread": 0.2}}}]
 VECTOR = pytest.mark.parametrize("vector", [False, True], ids=["gym.make", "vector"])
 
 
@@ -35,11 +45,13 @@ def _action(step: int, env: Any) -> np.ndarray:
 
 
 def _snapshot(env: Any) -> tuple:
-    """Everything a refused call could change: the episode state's buffers and every generator's state."""
+    """Everything a refused call could change: the episode state's buffers, every generator's state
+    and the task (its spec, core and keywords, which ``options["params"]`` changes)."""
     unwrapped = env.unwrapped
     rngs = [unwrapped.np_random, *unwrapped.state.rngs, *(getattr(unwrapped, "_rngs", None) or ())]
     return (unwrapped.state.floats.tobytes(), unwrapped.state.ints.tobytes(),
-            [None if rng is None else rng.bit_generator.state for rng in rngs])
+            [None if rng is None else rng.bit_generator.state for rng in rngs],
+            id(unwrapped.episode_spec), id(unwrapped.core), dict(unwrapped.keywords))
 
 
 def _play_alike(env: Any, reference: Any, steps: range, dtype: type = np.float32) -> None:

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import sail_env  # noqa: F401  (registers the ids)
-from sail_env.core.spec import Disturbances, task_spec
+from sail_env.core.spec import task_spec
+from sail_env.physics import randomisation
 from sail_env.envs import params
 from sail_env.envs.planar import LightSailEnv
 from sail_env.envs.rigid3d import LightSail3DEnv
@@ -82,8 +83,8 @@ def env_keywords() -> list[str]:
     registered random disturbances' (the 3D sail carries them all)."""
     own = list(params.keywords(params.Rigid3DParams))
     shared = [name for name in inspect.signature(task_spec).parameters
-              if name not in ("make_plant", "default_start_half_widths", "disturbances")]
-    episode = [field.name for field in dataclasses.fields(Disturbances) if field.name != "sources"]
+              if name not in ("make_plant", "default_start_half_widths", "randomness")]
+    episode = list(randomisation.FIELDS)
     return own + shared + episode + list(disturbances.keywords())
 
 
@@ -217,9 +218,9 @@ def test_reset_options_are_parsed_the_same_way_by_both_envs(env_id, vector):
     env = (gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point") if vector
            else gym.make(env_id))
     for options in ([("initial_state", {})], "initial_state", 3):
-        with pytest.raises(ValueError, match=r"^options must be None or a dict with keys among \('initial_state',\)"):
+        with pytest.raises(ValueError, match=r"^options must be None or a dict with keys among \('initial_state', 'params'\)"):
             env.reset(seed=0, options=options)
-    with pytest.raises(ValueError, match=r"^options keys must be among \('initial_state',\), got 'initial_states'$"):
+    with pytest.raises(ValueError, match=r"^options keys must be among \('initial_state', 'params'\), got 'initial_states'$"):
         env.reset(seed=0, options={"initial_states": {"x": 1e-3}})
     with pytest.raises(ValueError, match=r"^initial_state keys must be among .*, got 1$"):
         env.reset(seed=0, options={"initial_state": {"x": 1e-3, 1: 0.0}})

@@ -49,7 +49,7 @@ def test_a_registered_disturbance_is_an_env_keyword_and_adds_in_variance(servo_r
     """A new beam offset of 4e-5 m on top of the landing jitter's 3e-5 m plays the episodes of one
     landing jitter of 5e-5 m (independent Gaussians add in variance), not those of either alone."""
     both = gym.make("LightSailDeepDish-v0", beam_jitter_m=3e-5, servo_jitter_m=4e-5)
-    assert [type(d) for d in both.unwrapped.episode_spec.disturbances.sources] == [LandingJitter, ServoJitter]
+    assert [type(d) for d in both.unwrapped.episode_spec.randomisation.sources] == [LandingJitter, ServoJitter]
     one = gym.make("LightSailDeepDish-v0", beam_jitter_m=math.hypot(3e-5, 4e-5))
     alone = gym.make("LightSailDeepDish-v0", beam_jitter_m=3e-5)
     for seed in range(3):
