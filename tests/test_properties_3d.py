@@ -114,3 +114,16 @@ def check_vector_plays_the_single_episode(kwargs: dict, seed: int, actions: np.n
 @given(case=cases())
 def test_every_valid_3d_configuration_runs_clean_repeatable_episodes(case):
     check_case(case)
+
+
+def test_a_model_that_outgrows_its_coast_pieces_diverges_cleanly() -> None:
+    """A case newer Hypothesis versions draw (annulus beam, L0 = e^22 m): far beyond L0 the dish's
+    model grows faster than the window's, a coast piece's exponential overflowed, and the episode
+    raised FloatingPointError under the test's error state instead of ending diverged."""
+    case = {"sail_shape": "dish", "beam_profile": "annulus", "curvature_radius_m": math.exp(0.75),
+            "com_distance_m": 9.0, "beam_radius_m": 1.0, "absorptivity": 0.0, "spin_rad_s": 0.0,
+            "power_control": False, "relativistic": False, "velocity_terms": False, "ground_jitter_rad": 0.0,
+            "diffraction_length_m": math.exp(22.0), "payload_offset_m": 0.0, "control_start_s": 0.0,
+            "beam_jitter_m": 0.0, "push_noise": 0.0, "cutoff_jitter_s": 0.0, "light_delay": False,
+            "parameter_spread": 0.0, "sensor_noise_std": (0.0,) * 8, "action_seed": 0}
+    assert check_case(case) == "diverged"

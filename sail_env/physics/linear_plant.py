@@ -317,7 +317,11 @@ class LinearPlant:
         for first in range(0, total, batch):
             count = min(batch, total - first)
             offsets = first + 0.5 + np.arange(count if self.time_varying else 1)
-            propagators = self._piece_propagators(p, u, start_s[:, None] + offsets * piece[:, None], piece)
+            # A model whose growth along the flight outruns the pieces (sized by the window's growth,
+            # :meth:`coast_pieces`) overflows a piece's exponential: that sail has left the beam, its
+            # state inf or NaN (:meth:`diverged`), not a floating-point error.
+            with np.errstate(over="ignore", invalid="ignore"):
+                propagators = self._piece_propagators(p, u, start_s[:, None] + offsets * piece[:, None], piece)
             for j in range(count):
                 propagator = propagators[j if self.time_varying else 0]
                 active = (first + j < pieces) & ~diverged
@@ -325,7 +329,8 @@ class LinearPlant:
                     moved = self._sample_piece(propagator, x, active, normals[:, first + j])
                 else:
                     phi, drive = propagator
-                    moved = np.einsum("...ij,...j->...i", phi, x) + drive
+                    with np.errstate(over="ignore", invalid="ignore"):
+                        moved = np.einsum("...ij,...j->...i", phi, x) + drive
                 x = np.where(active[:, None], moved, x)
                 diverged |= active & self.diverged(p, x)
         return x, diverged
