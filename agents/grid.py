@@ -651,9 +651,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"grid {args.study}: {added} finished cells imported, {waiting} queued")
             return 0
         if args.command == "run":
-            training.stop_on_signals()
             study = create_grid(storage, args.study, grid_cells(settings), settings)
-            return work(storage, study, args.runs_dir, args.max_cells, wait=not args.no_wait)
+            with training.stopping_on_signals():
+                return work(storage, study, args.runs_dir, args.max_cells, wait=not args.no_wait)
         study = load_grid(storage, args.study)
     except (ValueError, KeyError, RuntimeError, SQLAlchemyError) as err:  # cli.UsageError is a ValueError
         return cli.fail(str(err).splitlines()[0])

@@ -28,6 +28,7 @@ end. A run directory holds:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import inspect
 import json
 import math
@@ -37,7 +38,7 @@ import signal
 import sys
 import time
 import zipfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -770,3 +771,18 @@ def stop_on_signals() -> None:
 
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, interrupt)
+
+
+@contextlib.contextmanager
+def stopping_on_signals() -> Iterator[None]:
+    """:func:`stop_on_signals` for the block, then the handlers and the stop request as they were:
+    a command's ``main`` called in-process (a test, a notebook) leaves its caller's Ctrl-C alone."""
+    previous = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    requested = _stop["requested"]
+    stop_on_signals()
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        _stop["requested"] = requested

@@ -334,9 +334,10 @@ def main(argv: list[str] | None = None) -> int:
     settings = {"timesteps": timesteps, "eval_freq": max(timesteps // args.evaluations, 1),
                 "eval_episodes": args.eval_episodes, "seed": args.seed, "residual": args.residual}
     optuna.logging.set_verbosity(optuna.logging.INFO)
-    training.stop_on_signals()
     try:
-        study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings, args.runs_dir / study_name)
+        with training.stopping_on_signals():
+            study = tune(args.algo, args.env, args.storage, study_name, args.trials, settings,
+                         args.runs_dir / study_name)
     except cli.UsageError as err:  # a storage that cannot be opened
         return cli.fail(err)
     except KeyboardInterrupt as stop:

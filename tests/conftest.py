@@ -1,11 +1,14 @@
-"""Shared fixtures: the seed paper's equations written out literally, as an independent reference; and the
-3D tables' disk cache kept to this run (below)."""
+"""Shared fixtures: the seed paper's equations written out literally, as an independent reference; the
+3D tables' disk cache kept to this run (below); and a guard that no test leaves the process's Ctrl-C
+handling changed (a handler left behind made a later test's Ctrl-C a stop request, and every
+training run after it ended "interrupted")."""
 
 from __future__ import annotations
 
 import atexit
 import os
 import shutil
+import signal
 import tempfile
 
 import numpy as np
@@ -38,3 +41,15 @@ def seed_rhs(config: SailConfig, state: np.ndarray, beam: np.ndarray = np.zeros(
 @pytest.fixture
 def seed_config() -> SailConfig:
     return SEED
+
+
+@pytest.fixture(autouse=True)
+def _signal_handlers_restored():
+    """Fail the test that changes SIGINT's or SIGTERM's handler without putting it back."""
+    before = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    yield
+    after = {signum: signal.getsignal(signum) for signum in before}
+    changed = [signal.Signals(signum).name for signum in before if after[signum] is not before[signum]]
+    for signum, handler in before.items():
+        signal.signal(signum, handler)
+    assert not changed, f"the test left the handler of {', '.join(changed)} changed"
