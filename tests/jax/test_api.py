@@ -123,3 +123,15 @@ def test_speed_jax_writes_its_table_between_the_markers(tmp_path) -> None:
     text = doc.read_text()
     assert "old" not in text and text.startswith("before\n") and text.endswith("after\n")
     assert "| LightSail-v0 | 64 |" in text and "first step of `LightSail-v0`" in text
+
+
+def test_the_readmes_jax_example_prints_what_it_says() -> None:
+    import re
+    from pathlib import Path
+
+    section = (Path(__file__).resolve().parents[2] / "README.md").read_text().split("## The JAX backend", 1)[1]
+    code = re.findall(r"```python\n(.*?)```", section, flags=re.S)[0]
+    printed = re.search(r"prints `(.*?)`", section).group(1)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == printed
