@@ -18,14 +18,21 @@ import sys
 import time
 from pathlib import Path
 
+import jax
+import numpy as np
+
+import sail_env.jax
 from agents import cli
+from agents.jax_ppo import PPOConfig, actor_arrays, make_train, success_rate
+from agents.mlp_policy import POLICY_FILE, save_policy
 from agents.training import new_run_dir, point_latest
+from sail_env.tasks import JAX_TASKS
 
 ALGO = "jax_ppo"
 
 
 def parse_args(argv: list[str] | None):
-    defaults = {f.name: f.default for f in dataclasses.fields(_config_class())}
+    defaults = {f.name: f.default for f in dataclasses.fields(PPOConfig)}
     parser = cli.Parser(description=cli.describe(__doc__), formatter_class=cli.HelpFormatter)
     parser.add_argument("--env", default="LightSail-v0", help="a task of the JAX backend (sail_env.tasks.JAX_TASKS)")
     parser.add_argument("--seeds", type=cli.positive_int, default=1, help="how many seeds, trained together")
@@ -40,31 +47,16 @@ def parse_args(argv: list[str] | None):
     return parser.parse_args(argv)
 
 
-def _config_class():
-    from agents.jax_ppo import PPOConfig
-
-    return PPOConfig
-
-
 def main(argv: list[str] | None = None) -> int:
     try:
         args = parse_args(argv)
-        from sail_env.tasks import JAX_TASKS
-
         if args.env not in JAX_TASKS:
             raise cli.UsageError(f"--env {args.env}: the JAX backend has {', '.join(JAX_TASKS)}")
-        config = _config_class()(total_timesteps=args.timesteps, num_envs=args.num_envs, num_steps=args.num_steps,
-                                 learning_rate=args.learning_rate)
+        config = PPOConfig(total_timesteps=args.timesteps, num_envs=args.num_envs, num_steps=args.num_steps,
+                           learning_rate=args.learning_rate)
         cli.check_writable_dir(args.runs_dir, "--runs-dir")
     except (cli.UsageError, ValueError) as err:
         return cli.fail(err)
-
-    import jax
-    import numpy as np
-
-    import sail_env.jax
-    from agents.jax_ppo import actor_arrays, make_train, success_rate
-    from agents.mlp_policy import POLICY_FILE, save_policy
 
     env, params = sail_env.jax.make(args.env)
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
