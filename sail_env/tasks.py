@@ -112,8 +112,8 @@ RIGID3D_TASKS["LightSailUncertain-v1"] = {**RIGID3D_TASKS["LightSail3DRealistic-
 TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}
 
 #: The tasks the JAX backend (``sail_env.jax``) carries, registered as ``jax/<id>`` too (Gymnasium's
-#: functional API); the others need noise, light delay, spread or the 3D sail there first.
-JAX_TASKS = ("LightSail-v0", "LightSailDeepDish-v0")
+#: functional API): the planar ones; the 3D sail is not there yet.
+JAX_TASKS = tuple(PLANAR_TASKS)
 
 #: ``(entry_point, vector_entry_point)`` of each family of tasks.
 ENTRY_POINTS = {

@@ -62,7 +62,6 @@ class EpisodeCore:
         ns, m = plant.n_states, plant.n_inputs
         params = plant.params(np.ones((n, plant.n_factors)))
         cols = params.step.shape[-1]
-        delayed = spec.light_delay
         # Standard normals of the window, drawn at reset: jitter and push per step, sensor per observation.
         # Steps run from lag0 before control to the last command's arrival: at most n + 2 max_delay.
         self.noise_steps = w = spec.n_steps + 2 * spec.max_delay + 2
@@ -73,9 +72,7 @@ class EpisodeCore:
         parts = (w * jittered, w if pushed else 0, (spec.n_steps + 1) * ns if sensed else 0, w * impacts)
         groups = plant.divergence_groups
         layout = np.zeros(int(Slot.TABLES) + jittered + impacts + 2 * len(groups), dtype=np.int64)
-        ring = max(spec.history_length, spec.max_delay + 1) + 1 if delayed else 1
-        state_ring = spec.max_delay + 2 if delayed else 1
-        delay_length = spec.n_steps + spec.max_delay + 2 if delayed else 0
+        ring, state_ring, delay_length = spec.ring_lengths
         power = plant.input_names.index("beam_power") if "beam_power" in plant.input_names else -1
         sizes = {"ENVS": n, "STATES": ns, "INPUTS": m, "COLUMNS": cols, "POWERS": params.step.shape[-2] // ns,
                  "SPEED_ROWS": len(plant.velocity_rows), "NOISE_STEPS": w, "JITTERED": jittered,

@@ -32,6 +32,7 @@ parameter draws. SI units throughout.
 | ``noisy``, ``jittered``, ``jitter_inputs``, ``jitter_std(p, t)`` | whether noise acts over the coast; the inputs a beam offset moves and the size of the active beam disturbances together (``sail_env.physics.disturbance``'s beam channel) |
 | ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (the impulse channel, e.g. dust): the rows they kick, their rate and size |
 | ``coast_pieces(p, duration)``, ``coast(p, x, u, duration, normals, start_s)`` | the propagation to cut-off with the noise's exact moments, and how many normals it draws |
+| ``piece_propagators(p, u, start_s, duration)``, ``held_input_generator(p, t)`` | one coast piece's propagator, and the moment generator of every held input at once (what the JAX backend is handed to coast as the compiled core does) |
 """
 
 from __future__ import annotations
@@ -129,3 +130,8 @@ class Plant(Protocol):
 
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
               normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def piece_propagators(self, p: PlantParams, u: np.ndarray, start_s: np.ndarray,
+                          duration: np.ndarray) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...
+
+    def held_input_generator(self, p: PlantParams, t: np.ndarray) -> np.ndarray: ...

@@ -185,6 +185,17 @@ class EpisodeSpec:
     def observation_size(self) -> int:
         return self.plant.n_states + 1 + self.plant.n_inputs * self.history_length
 
+    @property
+    def ring_lengths(self) -> tuple[int, int, int]:
+        """What an episode keeps for the light delay (each backend sizes its buffers by it): the sent
+        commands (the observation's history, and every command still in flight), the true states (the
+        oldest one a delayed observation can show) and the steps whose delay is tabled (to the last
+        command's arrival); ``(1, 1, 0)`` without light delay."""
+        if not self.light_delay:
+            return 1, 1, 0
+        return (max(self.history_length, self.max_delay + 1) + 1, self.max_delay + 2,
+                self.n_steps + self.max_delay + 2)
+
     def delay_steps(self, step: np.ndarray | int, acceleration_m_s2: np.ndarray | float | None = None) -> np.ndarray:
         """One-way light delay in steps at control ``step`` (zero without light delay); see
         :func:`sail_env.core.delay.delay_steps`. The nominal acceleration unless given."""

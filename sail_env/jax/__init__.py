@@ -20,21 +20,22 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 from sail_env.envs.planar import planar_spec  # noqa: E402  (after float64 is on)
-from sail_env.jax.planar import EnvParams, EnvState, PlanarSailEnv  # noqa: E402
+from sail_env.jax.planar import DRAWS, EnvParams, EnvState, EpisodeStart, PlanarSailEnv, StepNoise  # noqa: E402
 from sail_env.tasks import JAX_TASKS, PLANAR_TASKS  # noqa: E402
 
-__all__ = ["EnvParams", "EnvState", "PlanarSailEnv", "make"]
+__all__ = ["EnvParams", "EnvState", "EpisodeStart", "PlanarSailEnv", "StepNoise", "make"]
 
 
-def make(env_id: str, dtype: Any = jax.numpy.float64, **keywords: Any) -> tuple[PlanarSailEnv, EnvParams]:
+def make(env_id: str, dtype: Any = jax.numpy.float64, draws: int = DRAWS,
+         **keywords: Any) -> tuple[PlanarSailEnv, EnvParams]:
     """The JAX env of a task id and its default params; ``keywords`` as ``gym.make``'s (a bad one
-    is the same ``ValueError``). Today the planar tasks without noise, delay or spread. ``dtype``
+    is the same ``ValueError``). The planar tasks (:data:`~sail_env.tasks.JAX_TASKS`). ``dtype``
     float32 runs the episode in single precision (faster on accelerators; the Numba core's numbers
-    only to its rounding: docs/performance.md)."""
+    only to its rounding: docs/performance.md). ``draws``: the size of the bank of parameter draws a
+    task with spread plays (:mod:`sail_env.jax.planar`)."""
     if jax.numpy.dtype(dtype) not in (jax.numpy.float64, jax.numpy.float32):
         raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
     if env_id not in PLANAR_TASKS:
         raise ValueError(f"the JAX backend has no task {env_id!r}; it has {list(JAX_TASKS)}")
-    env = PlanarSailEnv(planar_spec(**{**PLANAR_TASKS[env_id], **keywords}), env_id, jax.numpy.dtype(dtype))
+    env = PlanarSailEnv(planar_spec(**{**PLANAR_TASKS[env_id], **keywords}), env_id, jax.numpy.dtype(dtype), draws)
     return env, env.default_params
-

@@ -2,14 +2,32 @@
 
 The task's matrices and tables come from the same NumPy/SciPy code the Numba core uses (the
 :class:`~sail_env.core.spec.EpisodeSpec` built from the same keywords), handed over once as the
-arrays of :class:`EnvParams`; this module holds only the episode logic: the clip and scale of the
-action, the exact step, the divergence rule, the envelope, the reward, the termination, the
-observation, and the coast and scoring at cut-off. Every function works on one environment;
-``jax.vmap`` batches them (over states, and over params for per-environment tasks).
+arrays of :class:`EnvParams`; this module holds only the episode logic of
+:mod:`sail_env.core.kernels` and :mod:`sail_env.core.episode`: the clip and scale of the action, the
+command ring and the light delay, the beam jitter and the push noise of each step, the divergence
+rule, the envelope, the reward, the termination, the (delayed, noisy) observation, the commands still
+in flight after the window, and the coast and scoring at cut-off. Every function works on one
+environment; ``jax.vmap`` batches them (over states, and over params for per-environment tasks).
 
-Covered today: the tasks without noise, light delay or parameter spread (``LightSail-v0``,
-``LightSailDeepDish-v0`` and any planar keywords that add none of those); :func:`make` refuses the
-others with a ``ValueError`` naming what is missing.
+**Randomness.** The public ``reset``/``step`` draw from their keys: at reset the parameter draw,
+the cut-off time, the launch state and the pre-control noise (:class:`EpisodeStart`); at each step
+that step's normals (:class:`StepNoise`). :meth:`PlanarSailEnv.reset_from` and
+:meth:`PlanarSailEnv.advance` take those draws as inputs instead: fed the Numba core's draws, both
+backends play the same episodes (``tests/jax/test_planar_jax.py``).
+
+**Parameter spread** (``LightSailRealistic-v0``'s ±10 %). Each parameter draw changes the step's
+matrix exponentials, the look-ahead table and the moment generators. Built per reset inside JAX
+they would cost ~100 times a step, and gymnax's autoreset builds a reset at every step; so the
+task's NumPy code builds them once for a bank of :data:`DRAWS` draws of the same distribution
+(``draws=`` in :func:`~sail_env.jax.make`), and a reset picks one uniformly. An episode's other
+draws (cut-off, launch, noise) are continuous, as the Numba core's.
+
+**The noisy coast** (one piece: every planar task's coast grows less than e^20 over its length, checked
+at construction) is the Numba core's: the exact second moments of the state under the push noise and
+the beam jitter with the last command held, then a Gaussian draw by the symmetric root of the
+correlation. The moment generator depends on the held command; the bank holds, per draw, the
+generator of every held input at once (:func:`~sail_env.physics.noise.held_input_generator`), reduced
+to the episode's input at its end.
 """
 
 from __future__ import annotations
@@ -18,6 +36,7 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import jax.scipy.linalg
 import numpy as np
 from flax import struct
 from gymnax.environments import environment, spaces
@@ -26,6 +45,22 @@ from sail_env.core.episode import OBSERVATION_LIMIT
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, succeeded
 from sail_env.core.spec import EpisodeSpec
 from sail_env.jax.arith import divide, log_ratio, ordered_dot
+from sail_env.physics.linear import sample_gaussian
+from sail_env.physics.noise import balancing, held_input_maps, mean_and_covariance, second_moment
+
+#: Parameter draws a task with spread holds (:func:`params_of`'s ``draws``): 4,096 draws cover
+#: ``LightSailRealistic-v0``'s box of five factors finely (the success rate of a fixed controller over
+#: them matches the continuous draw's within its interval: ``tests/jax/test_samplers.py``).
+DRAWS = 4096
+#: The bank's NumPy generator seed: a task's bank is the same on every machine.
+BANK_SEED = 0
+#: Most squarings of the coast's matrix exponential (``jax.scipy.linalg.expm`` returns NaN beyond its
+#: limit, 16 by default): the realistic coast's generator has a 1-norm of ~5e5, 16.5 squarings;
+#: :func:`bank_of` checks that every draw's, with any command held, stays within this limit. Under
+#: ``vmap`` every squaring up to the limit is computed, so it is not set higher than needed.
+MAX_SQUARINGS = 20
+#: θ₁₃ of the Padé approximant ``jax.scipy.linalg.expm`` uses: it squares ``log2(‖A‖₁ / θ₁₃)`` times.
+_PADE13_THETA = 5.371920351148152
 
 
 @struct.dataclass
@@ -35,63 +70,168 @@ class EnvState(environment.EnvState):
     x: jax.Array  # (n,) the true state
     last_command: jax.Array  # (m,) the beam input sent at the last step, held over the coast
     reward: jax.Array  # the last step's reward
-    envelope: jax.Array  # the last step's envelope: largest |V⊥|/Vz with the input held [rad]
+    envelope: jax.Array  # the last step's envelope: largest |V⊥|/Vz with the applied input held [rad]
     terminated: jax.Array  # the last step ended the episode
     diverged: jax.Array  # the sail left the beam (in the window or the coast)
     pointing: jax.Array  # the flight direction at cut-off [rad]: NaN before the end, inf after a divergence
+    draw: jax.Array  # the episode's parameter draw: its row of the params' bank (0 without spread)
+    cutoff: jax.Array  # the episode's beam cut-off time [s]
+    commands: jax.Array  # (C, m) ring of the sent commands, step s's at s % C (C = 1 without light delay)
+    states: jax.Array  # (S, n) ring of true states, step s's at (s + lag0) % S (the delayed observation's source)
+    sensor: jax.Array  # (n,) the standard normals of the current observation's sensor noise
+
+
+@struct.dataclass
+class EpisodeStart:
+    """An episode's draws at reset: what :meth:`PlanarSailEnv.reset_from` takes (the Numba core's
+    draws, in the cross-backend tests)."""
+
+    launch: jax.Array  # (n,) the launch state
+    draw: jax.Array  # row of the params' bank
+    cutoff: jax.Array  # the beam cut-off time [s]
+    pre_coast: jax.Array  # (n,) normals of the coast from launch to the first pre-control step
+    pre_steps: jax.Array  # (D, J + 1) normals of the pre-control steps: beam jitter (J), push
+    sensor: jax.Array  # (n,) normals of the first observation's sensor noise
+
+
+@struct.dataclass
+class StepNoise:
+    """One step's standard normals: what :meth:`PlanarSailEnv.advance` takes."""
+
+    jitter: jax.Array  # (J,) the beam offsets' of this step
+    push: jax.Array  # the push's of this step
+    sensor: jax.Array  # (n,) the next observation's sensor noise
+    in_flight: jax.Array  # (D + 2, J + 1) the steps after the window while commands are in flight
+    coast: jax.Array  # (n,) the coast's draw
 
 
 @struct.dataclass
 class EnvParams:
-    """A task's arrays, built by the NumPy/SciPy physics (:func:`params_of`); ``vmap`` over a
-    batch of them gives each environment its own task. (gymnax's ``EnvParams`` is not the base: its
-    field with a default would have to come first.)"""
+    """A task's arrays, built by the NumPy/SciPy physics (:func:`params_of`); ``vmap`` over a batch
+    of them gives each environment its own task. The first axis of the per-draw arrays is the bank of
+    parameter draws (one row without spread). (gymnax's ``EnvParams`` is not the base: its field with
+    a default would have to come first.)"""
 
-    step_matrix: jax.Array  # (n, n + m): the exact control step [Φ Γ]
-    envelope: jax.Array  # (n + m, S): the look-ahead table of the lateral speed, transposed
-    limits: jax.Array  # (G,): the divergence groups' limits
+    # per parameter draw (K, ...)
+    step_matrix: jax.Array  # (K, P·n, c): the exact control step, rows of [Φ Γ] per power of the push error ε
+    envelope: jax.Array  # (K, c, S): the look-ahead table of the lateral speed, transposed
+    limits: jax.Array  # (K, G): the divergence groups' limits
+    acceleration: jax.Array  # (K,): axial acceleration [m/s²]
+    delay: jax.Array  # (K, T): one-way light delay [steps] at each control step (zeros without delay)
+    launch_phi: jax.Array  # (K, n, n) noise-free tasks: launch to the start of control; noisy: (K, 0, 0)
+    pre_propagator: jax.Array  # (K, h, h) noisy tasks: the pre-control coast's second-moment propagator
+    coast_phi: jax.Array  # (K, n, n) noise-free tasks: one coast piece's propagator
+    coast_gamma: jax.Array  # (K, n, m) noise-free tasks: one coast piece's input matrix
+    coast_generator: jax.Array  # (K, h, h') noisy tasks: the held-input moment generator, its rows of (s, 1)
+    # per task
     action_scale: jax.Array  # (m,): the beam input at action +1
     state_scale: jax.Array  # (n,): divides the state in the observation
     start_half_widths: jax.Array  # (n,): the uniform launch box
-    launch_phi: jax.Array  # (n, n): the propagator from launch to the start of control (beam off)
-    coast_phi: jax.Array  # (n, n): one coast piece's propagator
-    coast_gamma: jax.Array  # (n, m): one coast piece's input matrix
-    speed_at_cutoff: jax.Array  # axial speed at cut-off [m/s]
+    sensor_std: jax.Array  # (n,): the sensor noise's standard deviation
+    jitter_std: jax.Array  # the beam offset's standard deviation per step [m]
+    push_noise: jax.Array  # the push's relative standard deviation per step
+    into_units: jax.Array  # (h, h) and back: the moment propagator's exact change of units
+    from_units: jax.Array
+    control_start_s: jax.Array
+    dt: jax.Array
+    beam_cutoff_s: jax.Array
+    cutoff_jitter_s: jax.Array
     max_steps_in_episode: int = struct.field(pytree_node=False, default=200)
-    #: Pieces of the coast to cut-off (divergence is checked after each): static, so that the coast
-    #: unrolls (one matrix product for a stable sail) instead of a loop of data-dependent length.
+    #: Pieces of a noise-free coast to cut-off (divergence is checked after each): static, so that the
+    #: coast unrolls (one matrix product for a stable sail) instead of a loop of data-dependent length.
     coast_pieces: int = struct.field(pytree_node=False, default=1)
 
 
-def params_of(spec: EpisodeSpec, dtype: jnp.dtype = jnp.float64) -> EnvParams:
-    """The :class:`EnvParams` of a planar task's spec (its nominal model: no spread), its arrays
-    (and so the episode's arithmetic) in ``dtype``: float64 is the Numba core's; float32 is faster
-    on accelerators, its error measured in ``tests/jax/test_planar_jax.py`` and docs/performance.md."""
+def params_of(spec: EpisodeSpec, dtype: jnp.dtype = jnp.float64, draws: int = DRAWS) -> EnvParams:
+    """The :class:`EnvParams` of a planar task's spec, its arrays (and so the episode's arithmetic)
+    in ``dtype``: float64 is the Numba core's; float32 is faster on accelerators, its error measured
+    in ``tests/jax/test_planar_jax.py`` and docs/performance.md. With parameter spread, a bank of
+    ``draws`` draws (generator seed :data:`BANK_SEED`)."""
     plant, dist = spec.plant, spec.randomisation
-    missing = [name for name, on in (("push_noise", dist.push_noise), ("sensor_noise_std", dist.any_sensor_noise),
-                                     ("cutoff_jitter_s", dist.cutoff_jitter_s), ("light_delay", spec.light_delay),
-                                     ("parameter_spread", dist.parameter_spread), ("random disturbances", dist.sources))
-               if on]
-    if missing or plant.biased:
-        raise ValueError(f"the JAX backend does not carry {', '.join(missing) or 'a constant drive'} yet: "
-                         f"only planar tasks without noise, delay or spread (LightSail-v0, LightSailDeepDish-v0)")
-    p = plant.params(np.ones((1, plant.n_factors)))
+    if draws < 1:
+        raise ValueError(f"draws must be >= 1, got {draws}")
+    factors = plant.factors(np.random.default_rng(BANK_SEED).random((draws if dist.parameter_spread else 1,
+                                                                     plant.n_draws)))
+    return bank_of(spec, factors, dtype)
+
+
+def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float64) -> EnvParams:
+    """:func:`params_of` with the bank of the given parameter factors (K, n_factors): the Numba core's
+    draws, in the cross-backend tests."""
+    plant, dist = spec.plant, spec.randomisation
+    unsupported = [name for name, on in (("random impacts", plant.impulse_rows),
+                                         ("a constant drive", np.any(plant.constant_term)),
+                                         ("light delay without noise", spec.light_delay and not plant.noisy),
+                                         ("cutoff_jitter_s without noise", dist.cutoff_jitter_s and not plant.noisy),
+                                         ("parameter_spread without noise", dist.parameter_spread and not plant.noisy))
+                   if on]
+    if unsupported:
+        raise ValueError(f"the JAX backend does not carry {', '.join(unsupported)} yet: it has the planar tasks "
+                         f"(LightSail-v0, LightSailDeepDish-v0, LightSailRealistic-v0)")
+    p = plant.params(factors) if dist.parameter_spread else plant.params(np.ones((1, plant.n_factors)))
+    k, n, m = len(p.acceleration), plant.n_states, plant.n_inputs
     config = spec.config
-    cutoff = config.beam_cutoff_s
-    remaining = max(cutoff - (config.control_start_s + spec.n_steps * spec.dt), 0.0)
-    pieces = int(plant.coast_pieces(p, np.array([remaining]))[0])
-    coast_phi, coast_gamma = plant.nominal.discretize(remaining / pieces)
-    pre_control = config.control_start_s
-    launch_phi = plant.nominal.discretize(pre_control)[0] if pre_control > 0 else np.eye(plant.n_states)
-    def array(values: np.ndarray) -> jax.Array:
+    cutoff, window_end = config.beam_cutoff_s, config.control_start_s + spec.n_steps * spec.dt
+    _, _, delay_length = spec.ring_lengths
+    delay = spec.delay_steps(np.arange(max(delay_length, 1)), p.acceleration[:, None]) * np.ones((k, 1), np.int64)
+    h = (n + 1) * (n + 2) // 2
+    empty = np.zeros((k, 0, 0))
+    if plant.noisy:
+        # The longest coast (latest cut-off, no command in flight) must be one piece, as the JAX coast is.
+        longest = np.full(k, cutoff + dist.cutoff_jitter_s - window_end)
+        lag0 = delay[:, 0]
+        pre_control = config.control_start_s - lag0 * spec.dt
+        if np.any(plant.coast_pieces(p, longest) > 1) or np.any(plant.coast_pieces(p, pre_control) > 1):
+            raise ValueError("the JAX backend coasts a noisy sail in one piece; this task's sail grows too fast "
+                             "over its coast (an unstable or parametrically excited sail)")
+        pre_propagator = plant.piece_propagators(p, np.zeros((k, m)), np.zeros(k), pre_control)
+        pick = held_input_maps(n, m)[0]
+        # The noise's intensity at the coast's middle (constant for the planar landing jitter).
+        generator = plant.held_input_generator(p, np.full(k, 0.5 * (window_end + cutoff)))
+        coast_generator = pick @ generator
+        _check_squarings(plant, spec, p, generator, longest)
+        launch_phi = coast_phi = coast_gamma = empty
+        pieces = 1
+    else:
+        remaining = max(cutoff - window_end, 0.0)
+        pieces = int(plant.coast_pieces(p, np.array([remaining]))[0])
+        coast_phi, coast_gamma = (matrix[None] for matrix in plant.nominal.discretize(remaining / pieces))
+        pre = config.control_start_s
+        launch_phi = (plant.nominal.discretize(pre)[0] if pre > 0 else np.eye(n))[None]
+        pre_propagator, coast_generator = np.zeros((k, h, h)), np.zeros((k, h, 0))
+    into, back = balancing(plant.start_limits())
+    jitter = plant.jitter_std(p, np.array([spec.window_middle_s]))
+
+    def array(values: Any) -> jax.Array:
         return jnp.asarray(values, dtype=dtype)
 
     return EnvParams(
-        step_matrix=array(p.step[0]), envelope=array(p.envelope[0].T), limits=array(p.limits[0]),
-        action_scale=array(spec.action_scale), state_scale=array(spec.state_scale),
-        start_half_widths=array(spec.start_half_widths), launch_phi=array(launch_phi), coast_phi=array(coast_phi),
-        coast_gamma=array(coast_gamma), speed_at_cutoff=array(plant.speed(p, np.array([cutoff]))[0]),
-        max_steps_in_episode=spec.n_steps, coast_pieces=pieces)
+        step_matrix=array(p.step), envelope=array(np.swapaxes(p.envelope, 1, 2)), limits=array(p.limits),
+        acceleration=array(p.acceleration), delay=jnp.asarray(delay, jnp.int32), launch_phi=array(launch_phi),
+        pre_propagator=array(pre_propagator), coast_phi=array(coast_phi), coast_gamma=array(coast_gamma),
+        coast_generator=array(coast_generator), action_scale=array(spec.action_scale),
+        state_scale=array(spec.state_scale), start_half_widths=array(spec.start_half_widths),
+        sensor_std=array(spec.sensor_noise_std), jitter_std=array(np.ravel(jitter)[0] if np.ndim(jitter) else jitter),
+        push_noise=array(dist.push_noise), into_units=array(into), from_units=array(back),
+        control_start_s=array(config.control_start_s), dt=array(spec.dt), beam_cutoff_s=array(cutoff),
+        cutoff_jitter_s=array(dist.cutoff_jitter_s), max_steps_in_episode=spec.n_steps, coast_pieces=pieces)
+
+
+def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarray, longest: np.ndarray) -> None:
+    """Refuse a bank whose coast, with any command held (the corners of the action box bound the
+    generator's entries, which are polynomials of degree 2 in the command), needs more than
+    :data:`MAX_SQUARINGS` squarings of its exponential."""
+    n, m = plant.n_states, plant.n_inputs
+    pick, lift0, lift1, lift2 = held_input_maps(n, m)
+    into, _ = balancing(plant.start_limits())
+    worst = 0.0
+    for corner in np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T * spec.action_scale:
+        lift = lift0 + np.tensordot(corner, lift1, 1) + np.tensordot(np.outer(corner, corner), lift2, 2)
+        coast = (pick @ generator @ lift) * (longest[:, None, None] * into)
+        worst = max(worst, float(np.abs(coast).sum(axis=-2).max()))
+    if np.log2(worst / _PADE13_THETA) > MAX_SQUARINGS - 1:
+        raise ValueError(f"the JAX backend's coast exponential would need {np.log2(worst / _PADE13_THETA):.1f} "
+                         f"squarings (at most {MAX_SQUARINGS - 1} with a margin): this task's coast is too long")
 
 
 class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
@@ -99,23 +239,31 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     action, params)`` with autoreset, the spaces); :func:`sail_env.jax.make` builds one.
 
     The episode is the Numba core's (:mod:`sail_env.core.kernels`, :mod:`sail_env.core.episode`):
-    fed the same launch states and actions, both give the same observations to the bit on a CPU
-    (under the XLA flag of :mod:`sail_env.jax.arith`), rewards within 1e-12 and terminal pointing
-    within 1e-9 (``tests/jax/test_planar_jax.py``). At an episode's end ``info`` carries the Gym
-    envs' scores: ``is_success``, ``terminal_pointing_rad`` (NaN before the end, inf after a
+    fed the same draws, both give the same episodes (``tests/jax/test_planar_jax.py``: observations
+    to the bit on a CPU under the XLA flag of :mod:`sail_env.jax.arith` until a noisy coast's draw,
+    rewards within 1e-12, terminal pointing within 1e-9). At an episode's end ``info`` carries the
+    Gym envs' scores: ``is_success``, ``terminal_pointing_rad`` (NaN before the end, inf after a
     divergence) and ``diverged``.
     """
 
-    def __init__(self, spec: EpisodeSpec, env_id: str = "LightSail", dtype: jnp.dtype = jnp.float64) -> None:
+    def __init__(self, spec: EpisodeSpec, env_id: str = "LightSail", dtype: jnp.dtype = jnp.float64,
+                 draws: int = DRAWS) -> None:
         super().__init__()
-        plant = spec.plant
+        plant, dist = spec.plant, spec.randomisation
         self.spec = spec  # what controllers design on, as the Gym envs' ``episode_spec``
         self._id = env_id
         self.n_states, self.n_inputs = plant.n_states, plant.n_inputs
         self.observation_size = spec.observation_size
         self.divergence_groups = plant.divergence_groups
         self.velocity_rows = plant.velocity_rows
-        self._params = params_of(spec, dtype)
+        self.jitter_inputs = tuple(plant.jitter_inputs) if plant.jittered else ()
+        self.delayed, self.noisy, self.sensed = spec.light_delay, plant.noisy, dist.any_sensor_noise
+        self.pushed = bool(dist.push_noise)
+        #: Whether an episode draws more than its launch (parameters, cut-off, noise).
+        self.randomised = bool(self.noisy or self.sensed or dist.parameter_spread or dist.cutoff_jitter_s)
+        self.max_delay, self.history = spec.max_delay, spec.history_length
+        self.command_ring, self.state_ring, _ = spec.ring_lengths
+        self._params = params_of(spec, dtype, draws)
 
     @property
     def name(self) -> str:
@@ -135,42 +283,144 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     def observation_space(self, params: EnvParams | None = None) -> spaces.Box:
         return spaces.Box(-OBSERVATION_LIMIT, OBSERVATION_LIMIT, (self.observation_size,), jnp.float32)
 
+    # ------------------------------------------------------------------ draws
+    def draw_start(self, key: jax.Array, params: EnvParams, launch: jax.Array | None = None) -> EpisodeStart:
+        """An episode's draws (:class:`EpisodeStart`): the launch state uniformly in
+        ``params.start_half_widths`` (unless given), and where the task has them the parameter draw (a
+        row of the bank), the cut-off within its jitter and the pre-control noise. A task without them
+        spends ``key`` on the launch alone."""
+        half, dtype = params.start_half_widths, params.start_half_widths.dtype
+        n, pre_shape = self.n_states, (self.max_delay, len(self.jitter_inputs) + 1)
+        if not self.randomised:
+            if launch is None:
+                launch = -half + (half - -half) * jax.random.uniform(key, half.shape, dtype=dtype)
+            zeros = jnp.zeros(n, dtype)
+            return EpisodeStart(launch=launch, draw=jnp.zeros((), jnp.int32), cutoff=params.beam_cutoff_s,
+                                pre_coast=zeros, pre_steps=jnp.zeros(pre_shape, dtype), sensor=zeros)
+        keys = jax.random.split(key, 6)
+        if launch is None:
+            launch = -half + (half - -half) * jax.random.uniform(keys[0], half.shape, dtype=dtype)
+        jitter = params.cutoff_jitter_s
+        u_cut = jax.random.uniform(keys[2], (), dtype=dtype)
+        return EpisodeStart(
+            launch=launch, draw=jax.random.randint(keys[1], (), 0, params.acceleration.shape[0]),
+            cutoff=params.beam_cutoff_s + (-jitter + (jitter - -jitter) * u_cut),
+            pre_coast=jax.random.normal(keys[3], (n,), dtype), pre_steps=jax.random.normal(keys[4], pre_shape, dtype),
+            sensor=jax.random.normal(keys[5], (n,), dtype))
+
+    def draw_noise(self, key: jax.Array, params: EnvParams) -> StepNoise:
+        """One step's normals (:class:`StepNoise`), zero where the task has no such noise (no key is spent
+        on a noise-free task)."""
+        dtype = params.state_scale.dtype
+        jittered = len(self.jitter_inputs)
+        shapes = {"jitter": (jittered,), "push": (), "sensor": (self.n_states,),
+                  "in_flight": (self.max_delay + 2, jittered + 1), "coast": (self.n_states,)}
+        if not self.randomised:
+            return StepNoise(**{name: jnp.zeros(shape, dtype) for name, shape in shapes.items()})
+        keys = jax.random.split(key, len(shapes))
+        return StepNoise(**{name: jax.random.normal(k, shape, dtype) for k, (name, shape) in zip(keys, shapes.items())})
+
     # ------------------------------------------------------------------ reset
     def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
-        """A launch state drawn uniformly in ``params.start_half_widths`` (:meth:`reset_from`)."""
-        half = params.start_half_widths
-        u = jax.random.uniform(key, half.shape, dtype=half.dtype)
-        return self.reset_from(-half + (half - -half) * u, params)
+        """A new episode from the draws of :meth:`draw_start`."""
+        return self.reset_from(self.draw_start(key, params), params)
 
-    def reset_from(self, launch: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
-        """An episode from a given launch state (n,): the same-draws entry the cross-backend tests
-        feed both backends through (the Numba core's ``initial_states``)."""
-        x = ordered_dot(params.launch_phi, launch)
-        zero = jnp.zeros((), dtype=x.dtype)
-        state = EnvState(time=jnp.zeros((), jnp.int32), x=x, last_command=jnp.zeros(self.n_inputs, x.dtype),
+    def reset_from(self, start: EpisodeStart, params: EnvParams) -> tuple[jax.Array, EnvState]:
+        """An episode from given draws (:class:`EpisodeStart`): the launch propagated to the start of
+        control (beam off; with light delay, the last ``lag0`` steps one by one, kept for the delayed
+        observations). The same-draws entry the cross-backend tests feed both backends through."""
+        d, n, dtype = start.draw, self.n_states, params.state_scale.dtype
+        if self.noisy:
+            x = self._sample(params.pre_propagator[d], start.launch, start.pre_coast)
+        else:
+            x = ordered_dot(params.launch_phi[d], start.launch)
+        states = jnp.zeros((self.state_ring, n), dtype).at[0].set(x)
+        if self.delayed:
+            lag0 = params.delay[d, 0]
+
+            def pre_step(s: int, carry: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
+                x, states = carry
+                moved = self._physics(params, d, x, jnp.zeros(self.n_inputs, dtype), start.pre_steps[s])
+                active = s < lag0
+                x = jnp.where(active, moved, x)
+                return x, jnp.where(active, states.at[(s + 1) % self.state_ring].set(moved), states)
+
+            x, states = jax.lax.fori_loop(0, self.max_delay, pre_step, (x, states))
+        zero = jnp.zeros((), dtype)
+        state = EnvState(time=jnp.zeros((), jnp.int32), x=x, last_command=jnp.zeros(self.n_inputs, dtype),
                          reward=zero, envelope=zero, terminated=jnp.array(False), diverged=jnp.array(False),
-                         pointing=jnp.full((), jnp.nan, x.dtype))
+                         pointing=jnp.full((), jnp.nan, dtype), draw=jnp.asarray(d, jnp.int32),
+                         cutoff=jnp.asarray(start.cutoff, dtype),
+                         commands=jnp.zeros((self.command_ring, self.n_inputs), dtype), states=states,
+                         sensor=jnp.asarray(start.sensor, dtype))
         return self.observe_state(state, params), state
 
     # ------------------------------------------------------------------ step
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array,
                  params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, dict[str, Any]]:
-        """One control step (the compiled kernel's order), then at the window's end the coast and
-        the score. A NaN action makes the state NaN and the episode diverge (JAX cannot raise)."""
-        del key  # no noise on these tasks
+        """One control step with this step's noise drawn from ``key`` (:meth:`advance`)."""
+        return self.advance(state, action, self.draw_noise(key, params), params)
+
+    def advance(self, state: EnvState, action: jax.Array, noise: StepNoise,
+                params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, dict[str, Any]]:
+        """One control step with given normals (the compiled kernel's order), then at the window's
+        end the commands in flight, the coast and the score. A NaN action makes the state NaN and the
+        episode diverge (JAX cannot raise)."""
+        state = self._score(self._window_step(state, action, noise, params), noise, params)
+        return self.observe_state(state, params), state, state.reward, state.terminated, self.scores(state)
+
+    def step_batch(self, keys: jax.Array, state: EnvState, action: jax.Array,
+                   params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, jax.Array, dict[str, Any]]:
+        """``vmap(step)`` over a batch (keys, states and actions lead with N; ``params`` shared), with
+        the same results (``tests/jax/test_api.py``), but the costly work only on the steps that need
+        it: the coast and scoring when some episode's window has ended, the resets when some episode
+        must restart (``lax.cond`` over the batch). ``vmap(step)`` computes both at every step, as
+        ``vmap`` turns a per-environment ``cond`` into a select: for a noisy task the coast's matrix
+        exponential then costs most of every step. Called under an outer ``vmap`` (over seeds, say),
+        the ``cond`` becomes a select again: batch the environments of all seeds in one call instead."""
+        split = jax.vmap(jax.random.split)(keys)
+        step_keys, reset_keys = split[:, 0], split[:, 1]
+        noise = jax.vmap(self.draw_noise, in_axes=(0, None))(step_keys, params)
+        state = jax.vmap(self._window_step, in_axes=(0, 0, 0, None))(state, action, noise, params)
+        state = jax.lax.cond(jnp.any(state.terminated),
+                             lambda s: jax.vmap(self._score, in_axes=(0, 0, None))(s, noise, params), lambda s: s,
+                             state)
+        obs_st = jax.vmap(self.observe_state, in_axes=(0, None))(state, params)
+        done = state.terminated
+        obs_re, state_re = jax.lax.cond(jnp.any(done),
+                                        lambda: jax.vmap(self.reset_env, in_axes=(0, None))(reset_keys, params),
+                                        lambda: (obs_st, state))
+
+        def pick(new: jax.Array, old: jax.Array) -> jax.Array:
+            return jnp.where(done.reshape(done.shape + (1,) * (new.ndim - 1)), new, old)
+
+        truncated = jnp.zeros_like(done)
+        info = {**jax.vmap(self.scores)(state), "terminated": done, "truncated": truncated, "final_observation": obs_st}
+        return pick(obs_re, obs_st), jax.tree.map(pick, state_re, state), state.reward, done, truncated, info
+
+    def _window_step(self, state: EnvState, action: jax.Array, noise: StepNoise, params: EnvParams) -> EnvState:
+        """The window's step alone (:meth:`advance` without the coast and the score)."""
+        d, now = state.draw, state.time
         command = jnp.clip(jnp.asarray(action, params.action_scale.dtype), -1.0, 1.0) * params.action_scale
-        x = ordered_dot(params.step_matrix, jnp.concatenate([state.x, command]))
-        peak = self._peak_speed(params.envelope, jnp.concatenate([x, command]))
-        envelope = divide(peak, params.speed_at_cutoff)
+        commands, applied = state.commands, command
+        if self.delayed:
+            commands = commands.at[now % self.command_ring].set(command)
+            applied = self._arrived(params, d, now, now, commands)
+        jitter_and_push = jnp.concatenate([noise.jitter, noise.push[None]])
+        x = self._physics(params, d, state.x, applied, jitter_and_push)
+        peak = self._peak_speed(params.envelope[d], jnp.concatenate([x, applied]))
+        envelope = divide(peak, self._speed_at_cutoff(state, params))
         window = params.max_steps_in_episode
-        time = state.time + 1
-        diverged = self._diverged(x, params)
+        time = now + 1
+        states = state.states
+        if self.delayed:
+            states = states.at[(time + params.delay[d, 0]) % self.state_ring].set(x)
+        diverged = self._diverged(x, params.limits[d])
         terminated = diverged | (time >= window)
         reward = jnp.where(diverged, DIVERGENCE_PENALTY, divide(-log_ratio(envelope), window))
-        state = state.replace(time=time, x=x, last_command=command, reward=reward, envelope=envelope,
-                              terminated=terminated, diverged=diverged)
-        state = self._score(state, params)
-        return self.observe_state(state, params), state, state.reward, terminated, self.scores(state)
+        return state.replace(time=time, x=x, last_command=command, reward=reward, envelope=envelope,
+                             terminated=terminated, diverged=diverged, commands=commands, states=states,
+                             sensor=noise.sensor)
 
     @staticmethod
     def scores(state: EnvState) -> dict[str, jax.Array]:
@@ -182,12 +432,40 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         """Never: the window's end terminates the episode (it is scored at cut-off)."""
         return jnp.array(False)
 
-    def _diverged(self, x: jax.Array, params: EnvParams) -> jax.Array:
+    # ------------------------------------------------------------------ physics
+    def _arrived(self, params: EnvParams, d: jax.Array, step: jax.Array, newest: jax.Array | int,
+                 commands: jax.Array) -> jax.Array:
+        """The command acting during ``step``: the newest sent by ``newest`` that has arrived, zero
+        before any has (:func:`sail_env.core.delay.arrived_command`)."""
+        sent = jnp.minimum(step - params.delay[d, step], newest)
+        return jnp.where(sent >= 0, commands[sent % self.command_ring], 0.0)
+
+    def _physics(self, params: EnvParams, d: jax.Array, x: jax.Array, inputs: jax.Array,
+                 normals: jax.Array) -> jax.Array:
+        """One plant step from ``x`` with ``inputs`` held, the beam offsets jittered by ``normals[:J]``
+        and the push's relative error ``push_noise · normals[J]`` (Horner's scheme over the push
+        expansion's rows, highest power first; the kernels' ``_physics``)."""
+        for j, column in enumerate(self.jitter_inputs):
+            inputs = inputs.at[column].set(inputs[column] + params.jitter_std * normals[j])
+        rows = ordered_dot(params.step_matrix[d], jnp.concatenate([x, inputs]))
+        n, powers = self.n_states, params.step_matrix.shape[1] // self.n_states
+        result = rows[(powers - 1) * n:]
+        if powers > 1:
+            eps = params.push_noise * normals[len(self.jitter_inputs)] if self.pushed else 0.0
+            for p in range(powers - 2, -1, -1):
+                result = rows[p * n:(p + 1) * n] + eps * result
+        return result
+
+    def _speed_at_cutoff(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The axial speed at the episode's cut-off (the planar model's ``a t``)."""
+        return params.acceleration[state.draw] * state.cutoff
+
+    def _diverged(self, x: jax.Array, limits: jax.Array) -> jax.Array:
         """The plant's divergence rule (:attr:`~sail_env.core.plant.Plant.divergence_groups`); NaN diverges."""
         out = jnp.array(False)
         for column, rows in enumerate(self.divergence_groups):
             size = jnp.abs(x[rows[0]]) if len(rows) == 1 else jnp.hypot(x[rows[0]], x[rows[1]])
-            out = out | ~(size <= params.limits[column])
+            out = out | ~(size <= limits[column])
         return out
 
     def _peak_speed(self, envelope: jax.Array, z: jax.Array) -> jax.Array:
@@ -202,16 +480,55 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
             return jnp.max(jnp.abs(speeds))
         return jnp.sqrt(jnp.max(squares))
 
-    def _score(self, state: EnvState, params: EnvParams) -> EnvState:
-        """Coast a finished window to cut-off with the last command held and score it (the
-        computation runs every step and is selected, as ``vmap`` would run both branches anyway)."""
-        final, coast_lost = state.x, jnp.array(False)
-        drive = params.coast_gamma @ state.last_command
-        for _ in range(params.coast_pieces):
-            final = jnp.where(coast_lost, final, params.coast_phi @ final + drive)
-            coast_lost = coast_lost | self._diverged(final, params)
+    def _sample(self, propagator: jax.Array, x: jax.Array, normals: jax.Array) -> jax.Array:
+        """The state after a noisy piece of second-moment ``propagator`` from ``x``: drawn from its
+        exact moments with ``normals``; NaN where they overflow (the sail has left the beam)."""
+        mean, cov = mean_and_covariance(propagator @ second_moment(x, jnp.zeros((x.shape[0], x.shape[0]), x.dtype),
+                                                                   xp=jnp))
+        finite = jnp.all(jnp.isfinite(mean)) & jnp.all(jnp.isfinite(cov))
+        safe_cov = jnp.where(finite, cov, 0.0)
+        return jnp.where(finite, sample_gaussian(mean, safe_cov, normals, xp=jnp), jnp.nan)
+
+    def _coast(self, state: EnvState, noise: StepNoise, params: EnvParams) -> tuple[jax.Array, jax.Array]:
+        """From the end of the window to cut-off: the commands still in flight step by step, then the
+        last command held to cut-off. Returns the state at cut-off and whether the coast diverged."""
+        d = state.draw
+        limits = params.limits[d]
+        if not self.noisy:  # a fixed coast: its pieces unrolled (one for a stable sail)
+            final, lost = state.x, jnp.array(False)
+            drive = params.coast_gamma[d] @ state.last_command
+            for _ in range(params.coast_pieces):
+                final = jnp.where(lost, final, params.coast_phi[d] @ final + drive)
+                lost = lost | self._diverged(final, limits)
+            return final, lost
+        x, reached = state.x, state.time
+        if self.delayed:
+            last = params.max_steps_in_episode - 1
+
+            def in_flight(k: int, carry: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
+                x, now = carry
+                moving = now - params.delay[d, now] < last
+                applied = self._arrived(params, d, now, last, state.commands)
+                moved = self._physics(params, d, x, applied, noise.in_flight[k])
+                return jnp.where(moving, moved, x), jnp.where(moving, now + 1, now)
+
+            x, reached = jax.lax.fori_loop(0, self.max_delay + 2, in_flight, (x, reached))
+        remaining = jnp.maximum(state.cutoff - (params.control_start_s + reached.astype(x.dtype) * params.dt), 0.0)
+        pick, lift0, lift1, lift2 = (jnp.asarray(a, x.dtype) for a in held_input_maps(self.n_states, self.n_inputs))
+        held = state.last_command
+        lift = lift0 + jnp.tensordot(held, lift1, 1) + jnp.tensordot(jnp.outer(held, held), lift2, 2)
+        generator = params.coast_generator[d] @ lift
+        balanced = generator * (remaining * params.into_units)
+        propagator = jax.scipy.linalg.expm(balanced, max_squarings=MAX_SQUARINGS) * params.from_units
+        final = self._sample(propagator, x, noise.coast)
+        return final, self._diverged(final, limits)
+
+    def _score(self, state: EnvState, noise: StepNoise, params: EnvParams) -> EnvState:
+        """Coast a finished window to cut-off and score it (computed every step and selected, as
+        ``vmap`` would run both branches anyway)."""
+        final, coast_lost = self._coast(state, noise, params)
         velocity = final[jnp.array(self.velocity_rows)]
-        pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), params.speed_at_cutoff)
+        pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), self._speed_at_cutoff(state, params))
         scored = state.terminated & ~state.diverged
         bonus = jnp.where(succeeded(pointing), SUCCESS_BONUS, 0.0)
         reward = jnp.where(scored, state.reward + (-log_ratio(pointing) + bonus), state.reward)
@@ -222,11 +539,24 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
 
     # ------------------------------------------------------------------ observation
     def observe_state(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """The state over its scales (clipped to the observation's limit), then the progress
-        through the window, as float32 (the kernels' ``_observe``)."""
-        scaled = jnp.clip(divide(state.x, params.state_scale), -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
-        progress = divide(2.0 * state.time.astype(params.state_scale.dtype), params.max_steps_in_episode) - 1.0
-        return jnp.concatenate([scaled, progress[None]]).astype(jnp.float32)
+        """The (delayed, noisy) state over its scales (clipped to the observation's limit), the
+        progress through the window and the commands sent, newest first, as float32 (the kernels'
+        ``_observe``)."""
+        d, time, source = state.draw, state.time, state.x
+        if self.delayed:
+            shown = jnp.maximum(time - params.delay[d, time] + params.delay[d, 0], 0)
+            source = state.states[shown % self.state_ring]
+        if self.sensed:
+            source = source + params.sensor_std * state.sensor
+        scaled = jnp.clip(divide(source, params.state_scale), -OBSERVATION_LIMIT, OBSERVATION_LIMIT)
+        progress = divide(2.0 * time.astype(params.state_scale.dtype), params.max_steps_in_episode) - 1.0
+        parts = [scaled, progress[None]]
+        for h in range(self.history):
+            sent = time - 1 - h
+            shown_command = jnp.where(sent >= 0, divide(state.commands[sent % self.command_ring], params.action_scale),
+                                      0.0)
+            parts.append(jnp.clip(shown_command, -OBSERVATION_LIMIT, OBSERVATION_LIMIT))
+        return jnp.concatenate(parts).astype(jnp.float32)
 
     def get_obs(self, state: EnvState, params: EnvParams | None = None, key: jax.Array | None = None) -> jax.Array:
         return self.observe_state(state, self.default_params if params is None else params)

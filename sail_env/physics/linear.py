@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import functools
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -126,7 +127,7 @@ def push_expansion(a: np.ndarray, b: np.ndarray, a_push: np.ndarray, b_push: np.
     return np.stack([exp[..., :n, j * k:(j + 1) * k] for j in range(terms)], axis=-3)
 
 
-def sample_gaussian(mean: np.ndarray, cov: np.ndarray, normals: np.ndarray) -> np.ndarray:
+def sample_gaussian(mean: np.ndarray, cov: np.ndarray, normals: np.ndarray, xp: Any = np) -> np.ndarray:
     """``mean + std · C^½ ξ`` for standard normals ``ξ`` (batched over leading axes): a draw from
     ``N(mean, cov)`` that is a continuous function of the covariance.
 
@@ -136,28 +137,28 @@ def sample_gaussian(mean: np.ndarray, cov: np.ndarray, normals: np.ndarray) -> n
     exactly at its mean. ``C^½`` is :func:`symmetric_root`: unlike ``V √Λ`` it does not depend on
     the signs and rotations the eigensolver picks for its eigenvectors, which differ between
     LAPACK drivers and CPU kernels, so a seed draws the same state on every machine (to round-off;
-    docs/physics.md §3).
+    docs/physics.md §3). ``xp`` is the array module (``jax.numpy`` for the JAX backend).
     """
-    std = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0.0, None))
-    safe = np.where(std > 0, std, 1.0)
+    std = xp.sqrt(xp.clip(xp.diagonal(cov, axis1=-2, axis2=-1), 0.0, None))
+    safe = xp.where(std > 0, std, 1.0)
     corr = cov / (safe[..., :, None] * safe[..., None, :])
-    root = symmetric_root(corr)
+    root = symmetric_root(corr, xp)
     return mean + std * (root @ normals[..., None])[..., 0]
 
 
-def symmetric_root(matrix: np.ndarray) -> np.ndarray:
+def symmetric_root(matrix: np.ndarray, xp: Any = np) -> np.ndarray:
     """The unique symmetric positive semi-definite square root ``V √Λ Vᵀ`` of symmetric matrices
     (..., n, n); negative eigenvalues from round-off count as zero.
 
     It is a function of the matrix alone (any orthonormal basis of an eigenspace gives the same
     product) and continuous: ``‖A^½ − B^½‖ ≤ ‖A − B‖^½`` for positive semi-definite ``A, B``, and
     Lipschitz where ``A`` is positive definite. The input is symmetrised first, so no solver's
-    choice of triangle matters either.
+    choice of triangle matters either. ``xp`` as :func:`sample_gaussian`'s.
     """
-    symmetric = 0.5 * (matrix + np.swapaxes(matrix, -1, -2))
-    eigval, eigvec = np.linalg.eigh(symmetric)
-    scaled = eigvec * np.sqrt(np.clip(eigval, 0.0, None))[..., None, :]
-    return scaled @ np.swapaxes(eigvec, -1, -2)
+    symmetric = 0.5 * (matrix + xp.swapaxes(matrix, -1, -2))
+    eigval, eigvec = xp.linalg.eigh(symmetric)
+    scaled = eigvec * xp.sqrt(xp.clip(eigval, 0.0, None))[..., None, :]
+    return scaled @ xp.swapaxes(eigvec, -1, -2)
 
 
 def sample_uniform(rng: np.random.Generator, low: np.ndarray | float, high: np.ndarray | float,

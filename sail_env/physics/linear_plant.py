@@ -28,8 +28,8 @@ import numpy as np
 from sail_env.physics.blas import one_blas_thread, single_threaded
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import LinearModel, sample_gaussian, zoh_discretize
-from sail_env.physics.noise import (WhiteNoise, mean_and_covariance, moment_generator, moment_propagator,
-                                    second_moment)
+from sail_env.physics.noise import (WhiteNoise, held_input_generator, mean_and_covariance, moment_generator,
+                                    moment_propagator, second_moment)
 from sail_env.physics.pointing import peak_speed
 
 #: The sail has left the small-angle regime the model is valid in.
@@ -279,6 +279,20 @@ class LinearPlant:
         """``d vec(M)/dt = G vec(M)`` of the second moments with ``u`` held at flight time ``t`` (k,)
         (:meth:`_moment_terms`)."""
         return moment_generator(*self._moment_terms(p, u, t))
+
+    def held_input_generator(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
+        """:func:`~sail_env.physics.noise.held_input_generator` of the models ``p`` at flight time ``t``
+        (k,): one moment generator for every held input (with a constant term, its input is the last
+        held input, at 1). The JAX backend's noisy coast starts from it."""
+        a, b, _, noise, push, jitter, psd, impacts = self._moment_terms(p, np.zeros((len(t), self.n_inputs)), t)
+        return held_input_generator(a, b, noise, push, jitter, psd, impacts)
+
+    def piece_propagators(self, p: PlantParams, u: np.ndarray, start_s: np.ndarray,
+                          duration: np.ndarray) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """The propagator of one :meth:`coast` piece of ``duration`` (k,) seconds from flight time
+        ``start_s`` (k,) with ``u`` (k, m) held, as :meth:`coast` builds it: of the second moments
+        (k, h, h) for a :attr:`noisy` plant, else ``(Φ, Γu)``. The JAX backend is handed its pre-control coast's."""
+        return self._piece_propagators(p, u, (start_s + 0.5 * duration)[:, None], duration)[0]
 
     @property
     def jittered(self) -> bool:

@@ -33,9 +33,12 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from typing import Any
 
 import numpy as np
 import scipy.linalg
+
+from sail_env.physics.linear import augmented
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,6 +80,65 @@ def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Wh
     off_diagonal = rows != cols
     folded[..., off_diagonal] += coefficients[..., cols[off_diagonal], rows[off_diagonal]]
     return folded
+
+
+def held_input_generator(a: np.ndarray, b: np.ndarray, noise: WhiteNoise, push: tuple[np.ndarray, np.ndarray],
+                         jitter_inputs: tuple[int, ...], jitter_psd: np.ndarray | None = None,
+                         state_psd: np.ndarray | None = None) -> np.ndarray:
+    """:func:`moment_generator` of the state ``(s, u)`` whose input ``u`` (m) is held as constant
+    states: one generator per model for every held input (arguments as :func:`moment_generator`'s,
+    without the action), of size ``(n+m+1)(n+m+2)/2``. :func:`held_input_maps` turns it into the
+    generator of one input, so a backend that meets a new input at every episode's end (the JAX
+    one) builds each model's once."""
+    n, m = b.shape[-2:]
+    b_held = np.zeros((*b.shape[:-2], n + m, m))
+    b_held[..., :n, :] = b
+    a_push, b_push = push
+    held_push = (augmented(a_push, b_push), np.zeros_like(b_held))
+    held_state_psd = None
+    if state_psd is not None:
+        held_state_psd = np.zeros((*np.shape(state_psd)[:-2], n + m, n + m))
+        held_state_psd[..., :n, :n] = state_psd
+    return moment_generator(augmented(a, b), b_held, np.zeros(m), noise, held_push, jitter_inputs, jitter_psd,
+                            held_state_psd)
+
+
+@functools.lru_cache(maxsize=None)
+def held_input_maps(n: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(R, L0, L1, L2)`` with ``moment_generator(…, u, …) = R G L(u)`` for ``G`` the
+    :func:`held_input_generator` and ``L(u) = L0 + Σ_j u_j L1[j] + Σ_ij u_i u_j L2[i, j]``.
+
+    ``L(u)`` (h' × h) lifts the second moments of ``(s, 1)`` to those of ``(s, u, 1)`` when ``u`` is
+    known: ``E[s u_j] = E[s] u_j``, ``E[u_i u_j] = u_i u_j``, ``E[u_i] = u_i``; ``R`` (h × h') picks the
+    entries of ``(s, 1)`` back out. Exact: the lifted moments move with ``G`` and stay lifted. Read-only."""
+    small, large = n + 1, n + m + 1
+    rows_s, cols_s, _ = _vech_maps(small)
+    rows_l, cols_l, _ = _vech_maps(large)
+    _, _, position_s = _vech_maps(small)
+    entry_s = position_s.reshape(small, small)
+    constant = n + m  # the constant's index in (s, u, 1)
+
+    def reduced(index: int) -> int | None:
+        """The index in (s, 1) of an index of (s, u, 1); None for an input's."""
+        return index if index < n else (n if index == constant else None)
+
+    h_small, h_large = len(rows_s), len(rows_l)
+    lift0, lift1, lift2 = np.zeros((h_large, h_small)), np.zeros((m, h_large, h_small)), np.zeros((m, m, h_large, h_small))
+    pick = np.zeros((h_small, h_large))
+    for k, (p, q) in enumerate(zip(rows_l, cols_l)):
+        rp, rq = reduced(p), reduced(q)
+        if rp is not None and rq is not None:
+            lift0[k, entry_s[rp, rq]] = 1.0
+            pick[entry_s[rp, rq], k] = 1.0
+        elif rp is not None and rp < n:  # E[s_p u_j] = E[s_p] u_j
+            lift1[q - n, k, entry_s[rp, n]] = 1.0
+        elif rp is None and rq is None:  # E[u_i u_j]
+            lift2[p - n, q - n, k, entry_s[n, n]] = 1.0
+        else:  # E[u_i · 1]
+            lift1[p - n, k, entry_s[n, n]] = 1.0
+    for array in (pick, lift0, lift1, lift2):
+        array.setflags(write=False)
+    return pick, lift0, lift1, lift2
 
 
 def vec_moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
@@ -152,11 +214,18 @@ def moment_propagator(generator: np.ndarray, duration: np.ndarray, units: np.nda
     exponential over the planar coast (65,000 rad of phase) keeps the tilt's variance only to ~2e-8
     of its second moment; in the states' own scales to ~5e-11 (a diagonal balancing, as LAPACK's
     ``gebal`` does for eigenvalues; scipy's ``expm`` does not balance)."""
+    into, back = balancing(units)
+    return scipy.linalg.expm(generator * (np.asarray(duration)[..., None, None] * into)) * back
+
+
+def balancing(units: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The factors ``(into, back)`` (h, h) of :func:`moment_propagator`'s change of units:
+    ``expm(G_h t) = expm(G_h t · into) · back`` (elementwise), the states in ``units`` (n,) rounded to
+    powers of two (exact)."""
     scale = np.append(2.0 ** np.round(np.log2(units)), 1.0)
     rows, cols, _ = _vech_maps(len(scale))
     weight = scale[rows] * scale[cols]  # vech(M) in the new units is vech(M) / weight
-    balanced = scipy.linalg.expm(generator * (np.asarray(duration)[..., None, None] * (weight / weight[:, None])))
-    return balanced * (weight[:, None] / weight)
+    return weight / weight[:, None], weight[:, None] / weight
 
 
 def moment_growth_rate(a: np.ndarray, b: np.ndarray, noise: WhiteNoise,
@@ -184,15 +253,15 @@ def _vech_maps(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return rows, cols, position
 
 
-def second_moment(mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """``vech E[x xᵀ]`` of the augmented state ``x = (s, 1)`` (..., (n + 1)(n + 2)/2)."""
-    batch, n = mean.shape[:-1], mean.shape[-1]
-    second = np.zeros((*batch, n + 1, n + 1))
-    second[..., :n, :n] = cov + mean[..., :, None] * mean[..., None, :]
-    second[..., :n, n] = second[..., n, :n] = mean
-    second[..., n, n] = 1.0
+def second_moment(mean: np.ndarray, cov: np.ndarray, xp: Any = np) -> np.ndarray:
+    """``vech E[x xᵀ]`` of the augmented state ``x = (s, 1)`` (..., (n + 1)(n + 2)/2); ``xp`` is the
+    array module (``jax.numpy`` for the JAX backend)."""
+    n = mean.shape[-1]
+    column = mean[..., :, None]
+    top = xp.concatenate([cov + column * mean[..., None, :], column], axis=-1)
+    bottom = xp.concatenate([mean, xp.ones_like(mean[..., :1])], axis=-1)[..., None, :]
     rows, cols, _ = _vech_maps(n + 1)
-    return second[..., rows, cols]
+    return xp.concatenate([top, bottom], axis=-2)[..., rows, cols]
 
 
 def mean_and_covariance(second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -48,10 +48,11 @@ def test_each_environment_can_have_its_own_params() -> None:
     batch = jax.tree.map(lambda a, b: jnp.stack([a, b]), wide, narrow)
     launch = jnp.asarray([[1e-3, 0.05, 1e-3, 0.0]] * 2)
     action = jnp.asarray([[0.7, -0.3]] * 2)
-    _, states = jax.vmap(env.reset_from)(launch, batch)
+    starts = jax.vmap(env.draw_start, in_axes=(None, 0, 0))(jax.random.key(0), batch, launch)
+    _, states = jax.vmap(env.reset_from)(starts, batch)
     obs, _, reward, _, _ = jax.vmap(env.step_env, in_axes=(None, 0, 0, 0))(jax.random.key(0), states, action, batch)
     for row, params in enumerate((wide, narrow)):
-        _, single = env.reset_from(launch[row], params)
+        _, single = env.reset_from(env.draw_start(jax.random.key(0), params, launch[row]), params)
         alone, _, alone_reward, _, _ = env.step_env(jax.random.key(0), single, action[row], params)
         np.testing.assert_array_equal(obs[row], alone)
         assert reward[row] == alone_reward
@@ -81,11 +82,42 @@ def test_a_jitted_scan_rolls_out_many_environments() -> None:
     assert int(success.sum()) <= int(terminated.sum())
 
 
+@pytest.mark.parametrize("env_id", ["LightSail-v0", "LightSailRealistic-v0"])
+def test_the_batched_step_is_vmapped_step(env_id: str) -> None:
+    """``step_batch`` gates the coast and the resets on the batch but plays what ``vmap(step)`` plays,
+    to the bit, through two windows with autoreset (and a few early divergences)."""
+    env, params = sail_env.jax.make(env_id, draws=64)
+    envs, steps = 32, 420
+
+    def rollout(batched: bool):
+        def run(key):
+            _, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, envs), params)
+
+            def one(state, key):
+                act_key, step_key = jax.random.split(key)
+                action = jax.random.uniform(act_key, (envs, 2), minval=-1.5, maxval=1.5)
+                keys = jax.random.split(step_key, envs)
+                step = env.step_batch if batched else jax.vmap(env.step, in_axes=(0, 0, 0, None))
+                obs, state, reward, terminated, _, info = step(keys, state, action, params)
+                return state, (obs, reward, terminated, info["terminal_pointing_rad"], info["final_observation"])
+
+            return jax.lax.scan(one, state, jax.random.split(key, steps))[1]
+        return jax.jit(run)(jax.random.key(5))
+
+    for batched, alone in zip(rollout(True), rollout(False)):
+        np.testing.assert_array_equal(np.asarray(batched), np.asarray(alone))
+    assert int(rollout(True)[2].sum()) >= 2 * envs
+
+
 def test_tasks_the_backend_does_not_carry_are_refused() -> None:
-    with pytest.raises(ValueError, match="light_delay"):
-        sail_env.jax.make("LightSailRealistic-v0")
-    with pytest.raises(ValueError, match="push_noise"):
-        sail_env.jax.make("LightSail-v0", push_noise=0.01)
+    with pytest.raises(ValueError, match="light delay without noise"):
+        sail_env.jax.make("LightSail-v0", light_delay=True)
+    with pytest.raises(ValueError, match="parameter_spread without noise"):
+        sail_env.jax.make("LightSailDeepDish-v0", parameter_spread=0.05)
+    with pytest.raises(ValueError, match="draws must be >= 1"):
+        sail_env.jax.make("LightSailRealistic-v0", draws=0)
+    with pytest.raises(ValueError, match="no task 'LightSail3D-v0'"):
+        sail_env.jax.make("LightSail3D-v0")
     with pytest.raises(ValueError, match="no task 'CartPole-v1'"):
         sail_env.jax.make("CartPole-v1")
     with pytest.raises(ValueError, match="max_beam_offset_m"):
