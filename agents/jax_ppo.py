@@ -108,8 +108,9 @@ class Transition(NamedTuple):
 
 
 def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict[str, Any]]:
-    """``train(key)``: a PPO run from scratch; returns the final network and, per update, the
-    success rate of the episodes that ended in its rollout (NaN if none) and the mean reward."""
+    """``train(key)``: a PPO run from scratch on ``env`` (a :class:`~sail_env.jax.planar.PlanarSailEnv`,
+    stepped by its ``step_batch``); returns the final network and, per update, the success rate of the
+    episodes that ended in its rollout (NaN if none) and the mean reward."""
     action_size = env.action_space(env_params).shape[0]
     obs_size = env.observation_space(env_params).shape[0]
     minibatch = config.batch_size // config.num_minibatches
@@ -120,7 +121,6 @@ def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict
 
     optimizer = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
                             optax.adam(schedule if config.anneal_lr else config.learning_rate, eps=1e-5))
-    step_env = jax.vmap(env.step, in_axes=(0, 0, 0, None))
 
     def train(key: jax.Array) -> dict[str, Any]:
         key, net_key, reset_key = jax.random.split(key, 3)
@@ -134,7 +134,7 @@ def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict
             mean = _mlp(network["actor"], obs)
             action = mean + jnp.exp(network["log_std"]) * jax.random.normal(act_key, mean.shape)
             value = _mlp(network["critic"], obs)[:, 0]
-            next_obs, env_state, reward, terminated, _, info = step_env(
+            next_obs, env_state, reward, terminated, _, info = env.step_batch(
                 jax.random.split(step_key, config.num_envs), env_state, action, env_params)
             transition = Transition(obs, action, _log_prob(mean, network["log_std"], action), value,
                                     reward.astype(jnp.float32), terminated, terminated & info["is_success"])
@@ -210,17 +210,19 @@ def actor_arrays(network: dict[str, Any]) -> dict[str, np.ndarray]:
 
 
 def success_rate(env, env_params, actor: list[dict[str, jax.Array]], key: jax.Array, episodes: int) -> jax.Array:
-    """The deterministic actor's success rate over ``episodes`` fresh episodes of the JAX env
-    (one window each, no autoreset: each episode's first end counts)."""
-    obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, episodes), env_params)
-    step = jax.vmap(env.step_env, in_axes=(None, 0, 0, None))
+    """The deterministic actor's success rate over ``episodes`` fresh episodes of the JAX env (each
+    environment's first episode counts; its autoreset starts another, not counted)."""
+    reset_key, steps_key = jax.random.split(key)
+    obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(reset_key, episodes), env_params)
 
-    def one(carry, _):
+    def one(carry, key):
         obs, state, success, ended = carry
-        obs, state, _, terminated, info = step(key, state, jnp.clip(_mlp(actor, obs), -1.0, 1.0), env_params)
+        action = jnp.clip(_mlp(actor, obs), -1.0, 1.0)
+        obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state, action, env_params)
         success = jnp.where(terminated & ~ended, info["is_success"], success)
         return (obs, state, success, ended | terminated), None
 
     start = (obs, state, jnp.zeros(episodes, bool), jnp.zeros(episodes, bool))
-    (_, _, success, _), _ = jax.lax.scan(one, start, None, env_params.max_steps_in_episode)
+    keys = jax.random.split(steps_key, env_params.max_steps_in_episode)
+    (_, _, success, _), _ = jax.lax.scan(one, start, keys)
     return success.mean()

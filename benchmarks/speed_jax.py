@@ -2,12 +2,16 @@
 
     python -m benchmarks.speed_jax [--quick] [--sizes 1000 10000 ...] [--rounds K] [--out FILE] [--readme FILE]
 
-Each subject and the peer run the same loop: ``jit`` of a ``lax.scan`` over ``vmap(env.step)``
+Each subject and the peer run the same loop: ``jit`` of a ``lax.scan`` over the batched step
 (autoreset inside the step) with uniform random actions drawn inside the loop, N environments,
-``--steps`` steps per call. They take turns (peer, subject, peer, subject, …, ``--rounds`` of
+``--steps`` steps per call: the peer's ``vmap(env.step)``, the subject's ``step_batch`` (the same
+results as its ``vmap(step)``, with the coast and the resets computed only on the steps that need
+them). They take turns (peer, subject, peer, subject, …, ``--rounds`` of
 each) and the best round of each counts: a neighbour's burst slows a round, never speeds one up.
 The table gives env-steps/s and the ratio subject ÷ peer at each N, on whatever device JAX finds
-(its name and the CPU model are printed). Compilation is timed apart (the first call), and so is
+(its name and the CPU model are printed). A second table sets the JAX backend against the
+project's Numba vector env (``gym.make_vec(..., vectorization_mode="vector_entry_point")``) at
+N = 1,024, interleaved the same way. Compilation is timed apart (the first call), and so is
 a new process's cold start of the JAX path: import, ``make``, compile and the first step of one
 environment. With ``--readme FILE`` the tables go between that markdown file's ``jax-speed-table``
 markers (docs/performance.md).
@@ -29,7 +33,9 @@ import sail_env.jax
 from agents import cli
 from sail_env.provenance import machine
 
-SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0")
+SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0", "LightSailRealistic-v0")
+#: Environments of the comparison with the Numba vector env.
+NUMBA_ENVS = 1024
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 README_SECTION = "jax-speed-table"
 #: A new process's first step on the JAX path (its time printed by the process itself).
@@ -46,8 +52,11 @@ print(time.perf_counter() - start)
 
 
 def rollout(env, params, envs: int, steps: int, continuous: bool):
-    """A jitted function of a key: ``steps`` autoresetting steps of ``envs`` environments; returns
-    the rewards' sum (so that nothing is optimised away)."""
+    """A jitted function of a key: ``steps`` autoresetting steps of ``envs`` environments (the
+    backend's ``step_batch`` for a sail, gymnax's ``vmap(step)`` for the peer); returns the rewards'
+    sum (so that nothing is optimised away)."""
+    step = getattr(env, "step_batch", None) or jax.vmap(env.step, in_axes=(0, 0, 0, None))
+
     def run(key):
         obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, envs), params)
 
@@ -58,8 +67,7 @@ def rollout(env, params, envs: int, steps: int, continuous: bool):
                 action = jax.random.uniform(act_key, (envs, 2), minval=-1.0, maxval=1.0)
             else:
                 action = jax.random.randint(act_key, (envs,), 0, 2)
-            _, state, reward, _, _, _ = jax.vmap(env.step, in_axes=(0, 0, 0, None))(
-                jax.random.split(step_key, envs), state, action, params)
+            _, state, reward, _, _, _ = step(jax.random.split(step_key, envs), state, action, params)
             return (state, total + reward.sum()), None
 
         (_, total), _ = jax.lax.scan(one, (state, jnp.zeros(())), jax.random.split(key, steps))
@@ -71,6 +79,31 @@ def rollout(env, params, envs: int, steps: int, continuous: bool):
 def timed(function, key) -> float:
     start = time.perf_counter()
     jax.block_until_ready(function(key))
+    return time.perf_counter() - start
+
+
+def numba_rollout(env_id: str, envs: int, steps: int):
+    """The Numba vector env's loop of ``steps`` autoresetting steps with uniform random actions (drawn
+    before the timed part); a function of a seed, as :func:`rollout`'s of a key."""
+    import gymnasium as gym
+    import numpy as np
+
+    vector = gym.make_vec(env_id, num_envs=envs, vectorization_mode="vector_entry_point")
+    vector.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (steps, envs, 2)).astype(np.float32)
+
+    def run(seed: int) -> float:
+        total = 0.0
+        for action in actions:
+            total += float(vector.step(action)[1].sum())
+        return total
+
+    return run
+
+
+def numba_timed(function, seed: int) -> float:
+    start = time.perf_counter()
+    function(seed)
     return time.perf_counter() - start
 
 
@@ -123,6 +156,23 @@ def main(argv: list[str] | None = None) -> int:
                          "compile_s": compile_s, "peer_compile_s": peer_compile})
             lines.append(f"| {task} | {envs:,} | {rate:.3g} | {peer_rate:.3g} | {rate / peer_rate:.2f}× | {compile_s:.1f} |")
             print(lines[-1], flush=True)
+    lines += ["", f"Against the project's Numba vector env at N = {NUMBA_ENVS:,} (one process, the same interleaving):", "",
+              "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba |", "|---|---:|---:|---:|"]
+    print("\n".join(lines[-4:]), flush=True)
+    for task in SUBJECTS:
+        env, params = sail_env.jax.make(task)
+        subject = rollout(env, params, NUMBA_ENVS, args.steps, continuous=True)
+        timed(subject, jax.random.key(0))
+        numba = numba_rollout(task, NUMBA_ENVS, args.steps)
+        numba_timed(numba, 0)  # compiles the kernels, fills the cache
+        best_numba = best_subject = float("inf")
+        for r in range(args.rounds):
+            best_numba = min(best_numba, numba_timed(numba, r + 1))
+            best_subject = min(best_subject, timed(subject, jax.random.key(r + 1)))
+        rate, numba_rate = NUMBA_ENVS * args.steps / best_subject, NUMBA_ENVS * args.steps / best_numba
+        rows.append({"task": task, "envs": NUMBA_ENVS, "rate": rate, "numba_rate": numba_rate})
+        lines.append(f"| {task} | {rate:.3g} | {numba_rate:.3g} | {rate / numba_rate:.2f}× |")
+        print(lines[-1], flush=True)
     cold = cold_start_s()
     lines += ["", f"A new process's import, make, compile and first step of `LightSail-v0`: {cold:.1f} s."]
     print(lines[-1])

@@ -287,3 +287,32 @@ def test_half_vectorised_coasts_of_the_real_plants_are_the_full_ones():
             phi, gamma = zoh_discretize(p.a, p.b, duration)
             exact = np.einsum("kij,kj->ki", phi, x) + np.einsum("kij,kj->ki", gamma, u)
             np.testing.assert_allclose(half[0] / second, exact / second, rtol=0, atol=2e-10)
+
+
+@pytest.mark.parametrize("n, m, jitter_inputs", [(4, 2, (0,)), (8, 4, (0, 1))])
+def test_the_held_input_generator_gives_every_inputs_generator(n, m, jitter_inputs):
+    """``R G L(u)`` of the held-input generator (the input as constant states) is the generator of
+    input ``u`` (random systems with push noise, beam jitter and a state noise), and its exponential
+    moves the lifted moments of ``(s, u, 1)`` as the input's moves those of ``(s, 1)``."""
+    from sail_env.physics.noise import (held_input_generator, held_input_maps, mean_and_covariance,
+                                        moment_generator, second_moment)
+
+    rng = np.random.default_rng(n)
+    systems = [_random_system(rng, n, m, -0.3) for _ in range(3)]
+    a, b, a_push, b_push = (np.stack(parts) for parts in zip(*systems))
+    psd, noise = rng.uniform(0.1, 1.0, 3), WhiteNoise(push_psd_s=0.2)
+    root = rng.standard_normal((3, n, n))
+    state_psd = root @ np.swapaxes(root, 1, 2)
+    held = held_input_generator(a, b, noise, (a_push, b_push), jitter_inputs, psd, state_psd)
+    assert held.shape == (3, (n + m + 1) * (n + m + 2) // 2, (n + m + 1) * (n + m + 2) // 2)
+    pick, lift0, lift1, lift2 = held_input_maps(n, m)
+    for u in (np.zeros((3, m)), rng.standard_normal((3, m))):
+        lift = lift0 + np.einsum("kj,jab->kab", u, lift1) + np.einsum("ki,kj,ijab->kab", u, u, lift2)
+        direct = moment_generator(a, b, u, noise, (a_push, b_push), jitter_inputs, psd, state_psd)
+        reduced = pick @ held @ lift
+        np.testing.assert_allclose(reduced, direct, rtol=0, atol=1e-14 * np.abs(direct).max())
+        start = second_moment(rng.standard_normal((3, n)), np.zeros((3, n, n)))
+        moved = mean_and_covariance(np.einsum("kij,kj->ki", scipy.linalg.expm(reduced * 2.0), start))
+        reference = mean_and_covariance(np.einsum("kij,kj->ki", scipy.linalg.expm(direct * 2.0), start))
+        for ours, theirs in zip(moved, reference):
+            np.testing.assert_allclose(ours, theirs, rtol=1e-10, atol=1e-12 * np.abs(theirs).max())
