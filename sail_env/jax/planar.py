@@ -309,16 +309,27 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
             sensor=jax.random.normal(keys[5], (n,), dtype))
 
     def draw_noise(self, key: jax.Array, params: EnvParams) -> StepNoise:
-        """One step's normals (:class:`StepNoise`), zero where the task has no such noise (no key is spent
-        on a noise-free task)."""
-        dtype = params.state_scale.dtype
-        jittered = len(self.jitter_inputs)
-        shapes = {"jitter": (jittered,), "push": (), "sensor": (self.n_states,),
-                  "in_flight": (self.max_delay + 2, jittered + 1), "coast": (self.n_states,)}
+        """One step's normals (:class:`StepNoise`), zero where the task has no such noise (no key is
+        spent on a noise-free task): the window step's from one half of ``key``, those of an episode's
+        end (the commands in flight, the coast) from the other."""
+        step_key, end_key = jax.random.split(key)
+        return self._with_end_noise(self._step_noise(step_key, params), end_key, params)
+
+    def _step_noise(self, key: jax.Array, params: EnvParams) -> StepNoise:
+        """The window step's normals (beam jitter, push, sensor) in one draw; the end's left zero."""
+        dtype, jittered, n = params.state_scale.dtype, len(self.jitter_inputs), self.n_states
+        normals = jax.random.normal(key, (jittered + 1 + n,), dtype) if self.randomised else jnp.zeros(
+            jittered + 1 + n, dtype)
+        return StepNoise(jitter=normals[:jittered], push=normals[jittered], sensor=normals[jittered + 1:],
+                         in_flight=jnp.zeros((self.max_delay + 2, jittered + 1), dtype), coast=jnp.zeros(n, dtype))
+
+    def _with_end_noise(self, noise: StepNoise, key: jax.Array, params: EnvParams) -> StepNoise:
+        """``noise`` with the normals of an episode's end drawn from ``key`` (in one draw)."""
         if not self.randomised:
-            return StepNoise(**{name: jnp.zeros(shape, dtype) for name, shape in shapes.items()})
-        keys = jax.random.split(key, len(shapes))
-        return StepNoise(**{name: jax.random.normal(k, shape, dtype) for k, (name, shape) in zip(keys, shapes.items())})
+            return noise
+        shape = noise.in_flight.shape
+        normals = jax.random.normal(key, (shape[0] * shape[1] + self.n_states,), params.state_scale.dtype)
+        return noise.replace(in_flight=normals[:-self.n_states].reshape(shape), coast=normals[-self.n_states:])
 
     # ------------------------------------------------------------------ reset
     def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
@@ -379,12 +390,15 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         exponential then costs most of every step. Called under an outer ``vmap`` (over seeds, say),
         the ``cond`` becomes a select again: batch the environments of all seeds in one call instead."""
         split = jax.vmap(jax.random.split)(keys)
-        step_keys, reset_keys = split[:, 0], split[:, 1]
-        noise = jax.vmap(self.draw_noise, in_axes=(0, None))(step_keys, params)
+        reset_keys, noise_keys = split[:, 1], jax.vmap(jax.random.split)(split[:, 0])  # as draw_noise splits
+        noise = jax.vmap(self._step_noise, in_axes=(0, None))(noise_keys[:, 0], params)
         state = jax.vmap(self._window_step, in_axes=(0, 0, 0, None))(state, action, noise, params)
-        state = jax.lax.cond(jnp.any(state.terminated),
-                             lambda s: jax.vmap(self._score, in_axes=(0, 0, None))(s, noise, params), lambda s: s,
-                             state)
+
+        def score(state: EnvState) -> EnvState:
+            ends = jax.vmap(self._with_end_noise, in_axes=(0, 0, None))(noise, noise_keys[:, 1], params)
+            return jax.vmap(self._score, in_axes=(0, 0, None))(state, ends, params)
+
+        state = jax.lax.cond(jnp.any(state.terminated), score, lambda s: s, state)
         obs_st = jax.vmap(self.observe_state, in_axes=(0, None))(state, params)
         done = state.terminated
         obs_re, state_re = jax.lax.cond(jnp.any(done),
