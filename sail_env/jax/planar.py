@@ -59,6 +59,8 @@ BANK_SEED = 0
 #: :func:`bank_of` checks that every draw's, with any command held, stays within this limit. Under
 #: ``vmap`` every squaring up to the limit is computed, so it is not set higher than needed.
 MAX_SQUARINGS = 20
+#: Environments :meth:`PlanarSailEnv.step_batch` coasts or resets together (:func:`_on_rows`).
+CHUNK = 256
 #: θ₁₃ of the Padé approximant ``jax.scipy.linalg.expm`` uses: it squares ``log2(‖A‖₁ / θ₁₃)`` times.
 _PADE13_THETA = 5.371920351148152
 
@@ -215,6 +217,28 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
         push_noise=array(dist.push_noise), into_units=array(into), from_units=array(back),
         control_start_s=array(config.control_start_s), dt=array(spec.dt), beam_cutoff_s=array(cutoff),
         cutoff_jitter_s=array(dist.cutoff_jitter_s), max_steps_in_episode=spec.n_steps, coast_pieces=pieces)
+
+
+def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
+    """``vmap(function)(*inputs)`` where ``need`` (N,), its outputs elsewhere zero: the rows that need
+    it gathered :data:`CHUNK` at a time (the last chunk padded with row 0, whose value is written
+    again unchanged), as many chunks as ``need`` has rows: none on most steps of a batch whose
+    episodes end together."""
+    envs = need.shape[0]
+    chunk = min(envs, CHUNK)
+    rows = jnp.nonzero(need, size=-(-envs // chunk) * chunk, fill_value=0)[0]
+    count = jnp.sum(need)
+    batched = jax.vmap(function)
+    template = jax.tree.map(lambda leaf: jnp.zeros((envs, *leaf.shape[1:]), leaf.dtype),
+                            jax.eval_shape(batched, *inputs))
+
+    def one(carry: tuple[jax.Array, Any]) -> tuple[jax.Array, Any]:
+        start, out = carry
+        taken = jax.lax.dynamic_slice(rows, (start,), (chunk,))
+        done = batched(*jax.tree.map(lambda leaf: leaf[taken], inputs))
+        return start + chunk, jax.tree.map(lambda whole, part: whole.at[taken].set(part), out, done)
+
+    return jax.lax.while_loop(lambda carry: carry[0] < count, one, (jnp.zeros((), rows.dtype), template))[1]
 
 
 def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarray, longest: np.ndarray) -> None:
@@ -383,27 +407,26 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     def step_batch(self, keys: jax.Array, state: EnvState, action: jax.Array,
                    params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, jax.Array, dict[str, Any]]:
         """``vmap(step)`` over a batch (keys, states and actions lead with N; ``params`` shared), with
-        the same results (``tests/jax/test_api.py``), but the costly work only on the steps that need
-        it: the coast and scoring when some episode's window has ended, the resets when some episode
-        must restart (``lax.cond`` over the batch). ``vmap(step)`` computes both at every step, as
-        ``vmap`` turns a per-environment ``cond`` into a select: for a noisy task the coast's matrix
-        exponential then costs most of every step. Called under an outer ``vmap`` (over seeds, say),
-        the ``cond`` becomes a select again: batch the environments of all seeds in one call instead."""
+        the same results (``tests/jax/test_api.py``), but the costly work only where it is needed: the
+        coast of the episodes whose window has ended and the resets of the episodes that end, gathered
+        :data:`CHUNK` at a time (:func:`_on_rows`). ``vmap(step)`` computes both for every
+        environment at every step, as ``vmap`` turns a per-environment ``cond`` into a select: for a
+        noisy task the coast's matrix exponential then costs most of every step. Under an outer
+        ``vmap`` (over seeds, say) the gathering's loop runs as long as the busiest seed needs: batch
+        the environments of all seeds in one call instead."""
         split = jax.vmap(jax.random.split)(keys)
         reset_keys, noise_keys = split[:, 1], jax.vmap(jax.random.split)(split[:, 0])  # as draw_noise splits
         noise = jax.vmap(self._step_noise, in_axes=(0, None))(noise_keys[:, 0], params)
         state = jax.vmap(self._window_step, in_axes=(0, 0, 0, None))(state, action, noise, params)
 
-        def score(state: EnvState) -> EnvState:
-            ends = jax.vmap(self._with_end_noise, in_axes=(0, 0, None))(noise, noise_keys[:, 1], params)
-            return jax.vmap(self._score, in_axes=(0, 0, None))(state, ends, params)
+        def coast(state: EnvState, noise: StepNoise, end_key: jax.Array) -> tuple[jax.Array, jax.Array]:
+            return self._coast(state, self._with_end_noise(noise, end_key, params), params)
 
-        state = jax.lax.cond(jnp.any(state.terminated), score, lambda s: s, state)
+        final, lost = _on_rows(state.terminated & ~state.diverged, coast, (state, noise, noise_keys[:, 1]))
+        state = jax.vmap(self._finish, in_axes=(0, 0, 0, None))(state, final, lost, params)
         obs_st = jax.vmap(self.observe_state, in_axes=(0, None))(state, params)
         done = state.terminated
-        obs_re, state_re = jax.lax.cond(jnp.any(done),
-                                        lambda: jax.vmap(self.reset_env, in_axes=(0, None))(reset_keys, params),
-                                        lambda: (obs_st, state))
+        obs_re, state_re = _on_rows(done, lambda key: self.reset_env(key, params), (reset_keys,))
 
         def pick(new: jax.Array, old: jax.Array) -> jax.Array:
             return jnp.where(done.reshape(done.shape + (1,) * (new.ndim - 1)), new, old)
@@ -540,7 +563,12 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
     def _score(self, state: EnvState, noise: StepNoise, params: EnvParams) -> EnvState:
         """Coast a finished window to cut-off and score it (computed every step and selected, as
         ``vmap`` would run both branches anyway)."""
-        final, coast_lost = self._coast(state, noise, params)
+        return self._finish(state, *self._coast(state, noise, params), params)
+
+    def _finish(self, state: EnvState, final: jax.Array, coast_lost: jax.Array, params: EnvParams) -> EnvState:
+        """The score of a finished window from its state at cut-off and whether the coast diverged
+        (read only where the window ended inside the beam): the terminal reward, the divergence
+        penalty, the pointing."""
         velocity = final[jnp.array(self.velocity_rows)]
         pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), self._speed_at_cutoff(state, params))
         scored = state.terminated & ~state.diverged
