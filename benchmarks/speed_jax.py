@@ -156,7 +156,8 @@ def main(argv: list[str] | None = None) -> int:
                          "compile_s": compile_s, "peer_compile_s": peer_compile})
             lines.append(f"| {task} | {envs:,} | {rate:.3g} | {peer_rate:.3g} | {rate / peer_rate:.2f}× | {compile_s:.1f} |")
             print(lines[-1], flush=True)
-    lines += ["", f"Against the project's Numba vector env at N = {NUMBA_ENVS:,} (one process, the same interleaving):", "",
+    lines += ["", f"Against the project's Numba vector env at N = {NUMBA_ENVS:,} (one process, the same interleaving):",
+              "",
               "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba |", "|---|---:|---:|---:|"]
     print("\n".join(lines[-4:]), flush=True)
     for task in SUBJECTS:

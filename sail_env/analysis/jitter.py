@@ -206,7 +206,7 @@ def planar_tolerable_ground_jitter(config: SailConfig = SEED, start_s: float = 0
 
 # --- The rigid 3D sail along its flight ---
 
-class FlightModel:
+class ModelAlongFlight:
     """The lateral linear model along a flight: ``A(t) = K + p(t) R(s(t))``, ``B(t) = p(t) B(s(t))``
     with ``p`` the Doppler factor and ``s`` the spot widening; ``R`` and ``B`` are linearised
     on a grid of scales and interpolated in ``ln s`` (:class:`~sail_env.physics.rigid3d.scales.ScaleTable`)."""
@@ -245,7 +245,7 @@ class FlightModel:
                 yield (start, end, *self.matrices(0.5 * (start + end)))
 
 
-def ground_jitter_tolerance(model: FlightModel, start_s: float = 0.0, segment_s: float = 1.0,
+def ground_jitter_tolerance(model: ModelAlongFlight, start_s: float = 0.0, segment_s: float = 1.0,
                             tolerance_rad: float = POINTING_TOLERANCE_RAD,
                             probability: float = 0.95) -> JitterTolerance:
     """Tolerable ground-angle PSD for a sail on the beam at ``start_s``, over both axes."""
@@ -284,7 +284,7 @@ def analyse(config: RigidSailConfig, relativistic: bool, array_diameter_m: float
     spot = config.outer_beam_radius_m if spot_radius_m is None else spot_radius_m
     length = math.inf if array_diameter_m is None else diffraction_length_m(spot, array_diameter_m)
     flight = fly(sail, cutoff_s, relativistic, length)
-    return ground_jitter_tolerance(FlightModel(sail, flight), start_s, segment_s, probability=probability)
+    return ground_jitter_tolerance(ModelAlongFlight(sail, flight), start_s, segment_s, probability=probability)
 
 
 # --- The table and plot (python -m sail_env.analysis.jitter --out jitter.png) ---

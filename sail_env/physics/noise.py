@@ -123,7 +123,8 @@ def held_input_maps(n: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
         return index if index < n else (n if index == constant else None)
 
     h_small, h_large = len(rows_s), len(rows_l)
-    lift0, lift1, lift2 = np.zeros((h_large, h_small)), np.zeros((m, h_large, h_small)), np.zeros((m, m, h_large, h_small))
+    lift0, lift1 = np.zeros((h_large, h_small)), np.zeros((m, h_large, h_small))
+    lift2 = np.zeros((m, m, h_large, h_small))
     pick = np.zeros((h_small, h_large))
     for k, (p, q) in enumerate(zip(rows_l, cols_l)):
         rp, rq = reduced(p), reduced(q)

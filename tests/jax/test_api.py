@@ -87,7 +87,7 @@ def test_the_batched_step_is_vmapped_step(env_id: str) -> None:
     """``step_batch`` gates the coast and the resets on the batch but plays what ``vmap(step)`` plays,
     to the bit, through two windows with autoreset (and a few early divergences)."""
     env, params = sail_env.jax.make(env_id, draws=64)
-    envs, steps = 384, 420  # more than one chunk of step_batch's gathering (CHUNK = 256)
+    envs, steps = 260, 410  # more than one chunk of step_batch's gathering (CHUNK = 256)
 
     def rollout(batched: bool):
         def run(key):

@@ -96,7 +96,8 @@ class SameDraws:
         for e, now, lag in zip(episodes, steps, lags):
             _, _, normals, coast = self.draws[e]
             this = self._column(normals, now + lag)
-            flight = np.array([self._column(normals, self.spec.n_steps + k + lag) for k in range(self.env.max_delay + 2)])
+            flight = np.array([self._column(normals, self.spec.n_steps + k + lag)
+                               for k in range(self.env.max_delay + 2)])
             rows.append((this[:-1], this[-1], self._sensor(normals, now + 1), flight, coast))
         return StepNoise(*(jnp.asarray(np.array(column)) for column in zip(*rows)))
 

@@ -9,8 +9,9 @@ import scipy.integrate
 from sail_env.physics import DEEP_DISH, SEED, PlanarModel
 from sail_env.physics.rigid3d import RigidSail, RigidSailConfig, linearise
 from sail_env.physics.rigid3d.flight import fly
-from sail_env.analysis.jitter import (BENCHMARK_FRACTION, GROUND_JITTER_PHYSICAL_RAD, FlightModel, accumulate_covariance,
-                                     analyse, ground_jitter_tolerance, jitter_intensity, matched_sail,
+from sail_env.analysis.jitter import (BENCHMARK_FRACTION, GROUND_JITTER_PHYSICAL_RAD, ModelAlongFlight,
+                                     accumulate_covariance, analyse, ground_jitter_tolerance, jitter_intensity,
+                                     matched_sail,
                                      planar_tolerable_ground_jitter, speed_quantile)
 from sail_env.physics.mission import ARRAY_DIAMETER_M, diffraction_length_m
 from sail_env.tasks import GROUND_JITTER_BENCHMARK_RAD, GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD
@@ -54,7 +55,7 @@ def test_three_d_seed_reproduces_the_planar_number_within_the_models_difference(
 
 def test_both_axes_are_isotropic_and_the_rayleigh_quantile_holds():
     sail = matched_sail(RigidSailConfig(curvature_radius_m=4.0, beam_profile="gaussian"), 98.0)
-    model = FlightModel(sail, fly(sail, 30.0, relativistic=True))
+    model = ModelAlongFlight(sail, fly(sail, 30.0, relativistic=True))
     steps = [(a, jitter_intensity(((b[:, 0], b[:, 2]), (b[:, 1], b[:, 3])), 1e6, 1e12), hi - lo)
              for lo, hi, a, b in model.segments(0.0, 1.0)]
     cov = accumulate_covariance(steps, 8)
@@ -87,7 +88,7 @@ def test_piecewise_propagation_along_a_widening_relativistic_flight_matches_a_co
     covariance ODE integrated with continuously varying A(t), B(t) and D(t)."""
     sail = matched_sail(RigidSailConfig(beam_profile="gaussian"), 98.0)
     flight = fly(sail, 20.0, relativistic=True, diffraction_length_m=0.5 * 1e5 * 10.0**2)
-    model = FlightModel(sail, flight)
+    model = ModelAlongFlight(sail, flight)
     assert model.log_scales.size > 2
     result = ground_jitter_tolerance(model, segment_s=0.25)
 

@@ -24,7 +24,7 @@ class GroundJitter(BeamDisturbance):
     needs_distance = True
 
     def check(self, plant: Any) -> None:
-        if not hasattr(plant, "flight_distance"):
+        if not hasattr(plant, "distance_flown"):
             raise ValueError(f"ground_jitter_rad needs a plant that integrates its flight's distance (the 3D tasks); "
                              f"{type(plant).__name__} does not, got {self.ground_jitter_rad}")
         farthest = plant.farthest_distance_m
@@ -34,4 +34,4 @@ class GroundJitter(BeamDisturbance):
                              f"radius, as beam_jitter_m), got {self.ground_jitter_rad}")
 
     def std_m(self, plant: Any, p: Any, t: np.ndarray) -> np.ndarray:
-        return plant.flight_distance(p, t) * self.ground_jitter_rad
+        return plant.distance_flown(p, t) * self.ground_jitter_rad

@@ -363,7 +363,7 @@ class RigidPlant(LinearPlant):
             return p.acceleration * t
         return self.flights.speed(p.acceleration / self.nominal_acceleration, t)
 
-    def flight_distance(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
+    def distance_flown(self, p: PlantParams, t: np.ndarray) -> np.ndarray:
         """Distance [m] from the array at flight times ``t`` ((k,) or a grid (k, s)) of each draw's flight."""
         ratio = p.acceleration / self.nominal_acceleration
         return self.flights.distance(ratio.reshape(ratio.shape + (1,) * (np.ndim(t) - 1)), t)
