@@ -108,7 +108,7 @@ class Transition(NamedTuple):
 
 
 def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict[str, Any]]:
-    """``train(key)``: a PPO run from scratch on ``env`` (a :class:`~sail_env.jax.planar.PlanarSailEnv`,
+    """``train(key)``: a PPO run from scratch on ``env`` (a :class:`~sail_env.jax.env.SailEnv`,
     stepped by its ``step_batch``); returns the final network and, per update, the success rate of the
     episodes that ended in its rollout (NaN if none) and the mean reward."""
     action_size = env.action_space(env_params).shape[0]

@@ -33,7 +33,7 @@ import sail_env.jax
 from agents import cli
 from sail_env.provenance import machine
 
-SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0", "LightSailRealistic-v0")
+SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0", "LightSailRealistic-v0", "LightSail3D-v0")
 #: Environments of the comparison with the Numba vector env.
 NUMBA_ENVS = 1024
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
@@ -64,7 +64,7 @@ def rollout(env, params, envs: int, steps: int, continuous: bool):
             state, total = carry
             act_key, step_key = jax.random.split(key)
             if continuous:
-                action = jax.random.uniform(act_key, (envs, 2), minval=-1.0, maxval=1.0)
+                action = jax.random.uniform(act_key, (envs, env.num_actions), minval=-1.0, maxval=1.0)
             else:
                 action = jax.random.randint(act_key, (envs,), 0, 2)
             _, state, reward, _, _, _ = step(jax.random.split(step_key, envs), state, action, params)
@@ -90,7 +90,8 @@ def numba_rollout(env_id: str, envs: int, steps: int):
 
     vector = gym.make_vec(env_id, num_envs=envs, vectorization_mode="vector_entry_point")
     vector.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (steps, envs, 2)).astype(np.float32)
+    actions = np.random.default_rng(0).uniform(-1.0, 1.0, (steps, envs, *vector.single_action_space.shape))
+    actions = actions.astype(np.float32)
 
     def run(seed: int) -> float:
         total = 0.0

@@ -112,8 +112,9 @@ RIGID3D_TASKS["LightSailUncertain-v1"] = {**RIGID3D_TASKS["LightSail3DRealistic-
 TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}
 
 #: The tasks the JAX backend (``sail_env.jax``) carries, registered as ``jax/<id>`` too (Gymnasium's
-#: functional API): the planar ones; the 3D sail is not there yet.
-JAX_TASKS = tuple(PLANAR_TASKS)
+#: functional API): the planar ones and the 3D sail without noise; the others need a coast whose model
+#: changes along the flight, random impacts and a constant drive there first.
+JAX_TASKS = (*PLANAR_TASKS, "LightSail3D-v0")
 
 #: ``(entry_point, vector_entry_point)`` of each family of tasks.
 ENTRY_POINTS = {

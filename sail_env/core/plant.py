@@ -32,7 +32,7 @@ parameter draws. SI units throughout.
 | ``noisy``, ``jittered``, ``jitter_inputs``, ``jitter_std(p, t)`` | whether noise acts over the coast; the inputs a beam offset moves and the size of the active beam disturbances together (``sail_env.physics.disturbance``'s beam channel) |
 | ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (the impulse channel, e.g. dust): the rows they kick, their rate and size |
 | ``coast_pieces(p, duration)``, ``coast(p, x, u, duration, normals, start_s)`` | the propagation to cut-off with the noise's exact moments, and how many normals it draws |
-| ``piece_propagators(p, u, start_s, duration)``, ``held_input_generator(p, t)`` | one coast piece's propagator, and the moment generator of every held input at once (what the JAX backend is handed to coast as the compiled core does) |
+| ``time_varying``, ``piece_propagators(p, u, start_s, duration)``, ``held_input_generator(p, t)`` | whether the coast's model changes along the flight; one coast piece's propagator, and the moment generator of every held input at once (what the JAX backend is handed to coast as the compiled core does) |
 """
 
 from __future__ import annotations
@@ -75,6 +75,7 @@ class Plant(Protocol):
     divergence_groups: tuple[tuple[int, ...], ...]
     nominal: LinearModel
     noisy: bool
+    time_varying: bool
 
     @property
     def n_states(self) -> int: ...

@@ -20,22 +20,28 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 from sail_env.envs.planar import planar_spec  # noqa: E402  (after float64 is on)
-from sail_env.jax.planar import DRAWS, EnvParams, EnvState, EpisodeStart, PlanarSailEnv, StepNoise  # noqa: E402
-from sail_env.tasks import JAX_TASKS, PLANAR_TASKS  # noqa: E402
+from sail_env.envs.rigid3d import rigid3d_spec  # noqa: E402
+from sail_env.jax.env import DRAWS, EnvParams, EnvState, EpisodeStart, SailEnv, StepNoise  # noqa: E402
+from sail_env.tasks import JAX_TASKS, PLANAR_TASKS, RIGID3D_TASKS  # noqa: E402
 
-__all__ = ["EnvParams", "EnvState", "EpisodeStart", "PlanarSailEnv", "StepNoise", "make"]
+__all__ = ["EnvParams", "EnvState", "EpisodeStart", "SailEnv", "StepNoise", "make"]
 
 
 def make(env_id: str, dtype: Any = jax.numpy.float64, draws: int = DRAWS,
-         **keywords: Any) -> tuple[PlanarSailEnv, EnvParams]:
+         **keywords: Any) -> tuple[SailEnv, EnvParams]:
     """The JAX env of a task id and its default params; ``keywords`` as ``gym.make``'s (a bad one
-    is the same ``ValueError``). The planar tasks (:data:`~sail_env.tasks.JAX_TASKS`). ``dtype``
+    is the same ``ValueError``). The tasks of :data:`~sail_env.tasks.JAX_TASKS`; another id's keywords are
+    refused by name where the backend does not carry them yet. ``dtype``
     float32 runs the episode in single precision (faster on accelerators; the Numba core's numbers
     only to its rounding: docs/performance.md). ``draws``: the size of the bank of parameter draws a
-    task with spread plays (:mod:`sail_env.jax.planar`)."""
+    task with spread plays (:mod:`sail_env.jax.env`)."""
     if jax.numpy.dtype(dtype) not in (jax.numpy.float64, jax.numpy.float32):
         raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
-    if env_id not in PLANAR_TASKS:
+    if env_id in PLANAR_TASKS:
+        spec = planar_spec(**{**PLANAR_TASKS[env_id], **keywords})
+    elif env_id in RIGID3D_TASKS:
+        spec = rigid3d_spec(**{**RIGID3D_TASKS[env_id], **keywords})
+    else:
         raise ValueError(f"the JAX backend has no task {env_id!r}; it has {list(JAX_TASKS)}")
-    env = PlanarSailEnv(planar_spec(**{**PLANAR_TASKS[env_id], **keywords}), env_id, jax.numpy.dtype(dtype), draws)
+    env = SailEnv(spec, env_id, jax.numpy.dtype(dtype), draws)
     return env, env.default_params

@@ -3,7 +3,7 @@ Gymnasium's ``FunctionalJaxEnv`` and ``FunctionalJaxVectorEnv`` (as ``phys2d/Car
 
 ``gym.make("jax/LightSail-v0")`` and ``gym.make_vec("jax/LightSail-v0", num_envs=N)`` build them
 (``import sail_env`` registers the ids without importing JAX); ``metadata["jax"]`` is True and
-observations are JAX arrays. The functions are :class:`~sail_env.jax.planar.PlanarSailEnv`'s,
+observations are JAX arrays. The functions are :class:`~sail_env.jax.env.SailEnv`'s,
 so both APIs play the same episodes.
 """
 
@@ -21,7 +21,7 @@ from gymnasium.vector import AutoresetMode
 
 import sail_env.jax as backend
 from sail_env.core.episode import OBSERVATION_LIMIT
-from sail_env.jax.planar import EnvParams, EnvState, PlanarSailEnv
+from sail_env.jax.env import EnvParams, EnvState, SailEnv
 
 #: The namespace of the JAX ids: ``jax/LightSail-v0`` is ``LightSail-v0`` on this backend.
 NAMESPACE = "jax"
@@ -65,7 +65,7 @@ class LightSailFunctional(FuncEnv):
 
     def transition_info(self, state: EnvState, action: jax.Array, next_state: EnvState,
                         params: EnvParams | None = None) -> dict:
-        return PlanarSailEnv.scores(next_state)
+        return SailEnv.scores(next_state)
 
 
 class LightSailJaxEnv(FunctionalJaxEnv, EzPickle):

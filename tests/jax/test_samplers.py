@@ -1,6 +1,7 @@
 """The two backends' samplers in distribution: JAX's keys cannot reproduce NumPy's streams, so the
 same agent's success rate over 10⁴ fresh episodes of each backend must agree within sampling error
-(passive, LQR and LQG as JAX policies designed by the same code as the NumPy agents). On
+(passive, LQR and LQG as JAX policies designed by the same code as the NumPy agents), every id of
+``JAX_TASKS``. On
 ``LightSailRealistic-v0`` this also checks the JAX backend's bank of 4,096 parameter draws against
 the Numba core's continuous draw."""
 
@@ -20,6 +21,7 @@ import jax.numpy as jnp  # noqa: E402
 import sail_env.jax  # noqa: E402
 from agents import LQGAgent, LQRAgent, PassiveAgent  # noqa: E402
 from agents.jax_policies import POLICIES  # noqa: E402
+from sail_env.tasks import JAX_TASKS  # noqa: E402
 
 EPISODES = 10_000
 NUMPY_AGENTS = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
@@ -63,8 +65,7 @@ def jax_success(env_id: str, agent_name: str) -> float:
     return float(success.mean())
 
 
-CASES = [(env_id, agent) for env_id in ("LightSail-v0", "LightSailDeepDish-v0", "LightSailRealistic-v0")
-         for agent in ("passive", "lqr", "lqg")]
+CASES = [(env_id, agent) for env_id in JAX_TASKS for agent in ("passive", "lqr", "lqg")]
 
 
 @pytest.mark.parametrize(("env_id", "agent_name"), CASES)
@@ -77,6 +78,6 @@ def test_success_rates_agree_in_distribution(env_id: str, agent_name: str) -> No
     if env_id == "LightSailRealistic-v0":  # the README's rows: passive 22 %, LQR ~0 (no delay model), LQG 84 %
         assert {"passive": 0.1 < numba < 0.35, "lqr": numba < 0.02, "lqg": 0.75 < numba < 0.95}[agent_name], numba
     elif agent_name == "passive":
-        assert 0.3 < numba < 0.8, numba
+        assert 0.1 < numba < 0.8, numba  # the README's 60 % (LightSail-v0), 48.5 % (deep dish), 17.5 % (3D)
     else:
         assert numba == jax_rate == 1.0

@@ -1,10 +1,10 @@
-"""One task, two backends: the JAX planar env against the Numba core, fed the same draws.
+"""One task, two backends: the JAX env against the Numba core, fed the same draws.
 
 JAX's random keys cannot reproduce NumPy's streams, so both backends are given the same draws: the
 launch states, each episode's parameter draw (the JAX params' bank is made of the Numba episodes'
 draws), cut-off and pre-control noise (the JAX env's ``reset_from``), each step's normals (its
-``advance``) and the actions, over N = 256 environments and 1,000 steps with autoreset, every planar
-id. Observations must agree to the bit (under the XLA flag of ``conftest.py``), the state within
+``advance``) and the actions, over N = 256 environments and 1,000 steps with autoreset, every id of
+``JAX_TASKS``. Observations must agree to the bit (under the XLA flag of ``conftest.py``), the state within
 1e-12 (relative, or of its scales), the rewards of the window's steps within 1e-12 (relative, or
 1e-15 absolute near zero), and the terminal pointing within 1e-9 relative; after a noisy coast
 within 1e-8 relative or 1e-16 rad (see :func:`_assert_pointing`).
@@ -26,9 +26,8 @@ import jax.numpy as jnp  # noqa: E402
 import sail_env.jax  # noqa: E402
 from sail_env.core.episode import EpisodeCore  # noqa: E402
 from sail_env.core.state import Slot  # noqa: E402
-from sail_env.envs.planar import planar_spec  # noqa: E402
-from sail_env.jax.planar import EpisodeStart, StepNoise, bank_of  # noqa: E402
-from sail_env.tasks import PLANAR_TASKS  # noqa: E402
+from sail_env.jax.env import EpisodeStart, StepNoise, bank_of  # noqa: E402
+from sail_env.tasks import JAX_TASKS  # noqa: E402
 
 ENVS, STEPS = 256, 1000
 EXACT = "--xla_cpu_max_isa=AVX" in os.environ.get("XLA_FLAGS", "")
@@ -102,10 +101,10 @@ class SameDraws:
         return StepNoise(*(jnp.asarray(np.array(column)) for column in zip(*rows)))
 
 
-@pytest.mark.parametrize("env_id", list(PLANAR_TASKS))
+@pytest.mark.parametrize("env_id", JAX_TASKS)
 def test_the_same_draws_play_the_same_episodes(env_id: str) -> None:
-    spec = planar_spec(**PLANAR_TASKS[env_id])
     env, _ = sail_env.jax.make(env_id, draws=1)
+    spec = env.spec
     draws = SameDraws(spec, env, episodes=ENVS * 8)
     params = draws.params
     core = EpisodeCore(spec, ENVS)
@@ -185,7 +184,7 @@ def test_float32_keeps_the_scores_to_its_rounding() -> None:
     terminal pointing to 1e-4 in the median (the coast's ~4·10⁴ rad of phase costs float32 its
     digits; at worst ~1 %), success decided alike in all but a handful of episodes."""
     envs = 1024
-    launch = _launches(planar_spec(**PLANAR_TASKS["LightSail-v0"]), np.random.default_rng(3), envs)
+    launch = _launches(sail_env.jax.make("LightSail-v0")[0].spec, np.random.default_rng(3), envs)
     actions = np.random.default_rng(4).uniform(-0.3, 0.3, (200, envs, 2))
     scores = []
     for dtype in (jnp.float64, jnp.float32):

@@ -1,4 +1,4 @@
-"""The planar tasks as pure JAX functions: gymnax's ``Environment`` over an explicit state pytree.
+"""The tasks as pure JAX functions: gymnax's ``Environment`` over an explicit state pytree.
 
 The task's matrices and tables come from the same NumPy/SciPy code the Numba core uses (the
 :class:`~sail_env.core.spec.EpisodeSpec` built from the same keywords), handed over once as the
@@ -8,12 +8,15 @@ command ring and the light delay, the beam jitter and the push noise of each ste
 rule, the envelope, the reward, the termination, the (delayed, noisy) observation, the commands still
 in flight after the window, and the coast and scoring at cut-off. Every function works on one
 environment; ``jax.vmap`` batches them (over states, and over params for per-environment tasks).
+The logic is the linear plant's, whatever the sail model: the planar tasks and ``LightSail3D-v0``
+today (:data:`~sail_env.tasks.JAX_TASKS`); :func:`bank_of` refuses, by name, what it does not carry yet
+(a coast whose model changes along the flight, random impacts, a constant drive, power control).
 
 **Randomness.** The public ``reset``/``step`` draw from their keys: at reset the parameter draw,
 the cut-off time, the launch state and the pre-control noise (:class:`EpisodeStart`); at each step
-that step's normals (:class:`StepNoise`). :meth:`PlanarSailEnv.reset_from` and
-:meth:`PlanarSailEnv.advance` take those draws as inputs instead: fed the Numba core's draws, both
-backends play the same episodes (``tests/jax/test_planar_jax.py``).
+that step's normals (:class:`StepNoise`). :meth:`SailEnv.reset_from` and
+:meth:`SailEnv.advance` take those draws as inputs instead: fed the Numba core's draws, both
+backends play the same episodes (``tests/jax/test_same_draws.py``).
 
 **Parameter spread** (``LightSailRealistic-v0``'s ±10 %). Each parameter draw changes the step's
 matrix exponentials, the look-ahead table and the moment generators. Built per reset inside JAX
@@ -22,8 +25,8 @@ task's NumPy code builds them once for a bank of :data:`DRAWS` draws of the same
 (``draws=`` in :func:`~sail_env.jax.make`), and a reset picks one uniformly. An episode's other
 draws (cut-off, launch, noise) are continuous, as the Numba core's.
 
-**The noisy coast** (one piece: every planar task's coast grows less than e^20 over its length, checked
-at construction) is the Numba core's: the exact second moments of the state under the push noise and
+**The noisy coast** (one piece: the realistic planar task's coast grows less than e^20 over its length,
+checked at construction) is the Numba core's: the exact second moments of the state under the push noise and
 the beam jitter with the last command held, then a Gaussian draw by the symmetric root of the
 correlation. The moment generator depends on the held command; the bank holds, per draw, the
 generator of every held input at once (:func:`~sail_env.physics.noise.held_input_generator`), reduced
@@ -59,7 +62,7 @@ BANK_SEED = 0
 #: :func:`bank_of` checks that every draw's, with any command held, stays within this limit. Under
 #: ``vmap`` every squaring up to the limit is computed, so it is not set higher than needed.
 MAX_SQUARINGS = 20
-#: Environments :meth:`PlanarSailEnv.step_batch` coasts or resets together (:func:`_on_rows`).
+#: Environments :meth:`SailEnv.step_batch` coasts or resets together (:func:`_on_rows`).
 CHUNK = 256
 #: θ₁₃ of the Padé approximant ``jax.scipy.linalg.expm`` uses: it squares ``log2(‖A‖₁ / θ₁₃)`` times.
 _PADE13_THETA = 5.371920351148152
@@ -85,7 +88,7 @@ class EnvState(environment.EnvState):
 
 @struct.dataclass
 class EpisodeStart:
-    """An episode's draws at reset: what :meth:`PlanarSailEnv.reset_from` takes (the Numba core's
+    """An episode's draws at reset: what :meth:`SailEnv.reset_from` takes (the Numba core's
     draws, in the cross-backend tests)."""
 
     launch: jax.Array  # (n,) the launch state
@@ -98,7 +101,7 @@ class EpisodeStart:
 
 @struct.dataclass
 class StepNoise:
-    """One step's standard normals: what :meth:`PlanarSailEnv.advance` takes."""
+    """One step's standard normals: what :meth:`SailEnv.advance` takes."""
 
     jitter: jax.Array  # (J,) the beam offsets' of this step
     push: jax.Array  # the push's of this step
@@ -119,6 +122,7 @@ class EnvParams:
     envelope: jax.Array  # (K, c, S): the look-ahead table of the lateral speed, transposed
     limits: jax.Array  # (K, G): the divergence groups' limits
     acceleration: jax.Array  # (K,): axial acceleration [m/s²]
+    speed_at_cutoff: jax.Array  # (K,): the axial speed at the nominal cut-off [m/s] (the plant's flight law)
     delay: jax.Array  # (K, T): one-way light delay [steps] at each control step (zeros without delay)
     launch_phi: jax.Array  # (K, n, n) noise-free tasks: launch to the start of control; noisy: (K, 0, 0)
     pre_propagator: jax.Array  # (K, h, h) noisy tasks: the pre-control coast's second-moment propagator
@@ -145,9 +149,9 @@ class EnvParams:
 
 
 def params_of(spec: EpisodeSpec, dtype: jnp.dtype = jnp.float64, draws: int = DRAWS) -> EnvParams:
-    """The :class:`EnvParams` of a planar task's spec, its arrays (and so the episode's arithmetic)
+    """The :class:`EnvParams` of a task's spec, its arrays (and so the episode's arithmetic)
     in ``dtype``: float64 is the Numba core's; float32 is faster on accelerators, its error measured
-    in ``tests/jax/test_planar_jax.py`` and docs/performance.md. With parameter spread, a bank of
+    in ``tests/jax/test_same_draws.py`` and docs/performance.md. With parameter spread, a bank of
     ``draws`` draws (generator seed :data:`BANK_SEED`)."""
     plant, dist = spec.plant, spec.randomisation
     if draws < 1:
@@ -161,19 +165,27 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
     """:func:`params_of` with the bank of the given parameter factors (K, n_factors): the Numba core's
     draws, in the cross-backend tests."""
     plant, dist = spec.plant, spec.randomisation
-    unsupported = [name for name, on in (("random impacts", plant.impulse_rows),
+    unsupported = [name for name, on in (("a coast whose model changes along the flight (relativity, diffraction, "
+                                          "dust)", plant.time_varying),
+                                         ("random impacts", plant.impulse_rows),
                                          ("a constant drive", np.any(plant.constant_term)),
+                                         ("power control", "beam_power" in plant.input_names),
                                          ("light delay without noise", spec.light_delay and not plant.noisy),
                                          ("cutoff_jitter_s without noise", dist.cutoff_jitter_s and not plant.noisy),
                                          ("parameter_spread without noise", dist.parameter_spread and not plant.noisy))
                    if on]
     if unsupported:
         raise ValueError(f"the JAX backend does not carry {', '.join(unsupported)} yet: it has the planar tasks "
-                         f"(LightSail-v0, LightSailDeepDish-v0, LightSailRealistic-v0)")
+                         f"and LightSail3D-v0")
     p = plant.params(factors) if dist.parameter_spread else plant.params(np.ones((1, plant.n_factors)))
     k, n, m = len(p.acceleration), plant.n_states, plant.n_inputs
     config = spec.config
     cutoff, window_end = config.beam_cutoff_s, config.control_start_s + spec.n_steps * spec.dt
+    if dist.cutoff_jitter_s:  # the episode's speed at its cut-off is then a t: the flight must be Newtonian
+        times = np.array([cutoff - dist.cutoff_jitter_s, cutoff + dist.cutoff_jitter_s]) * np.ones((k, 1))
+        if not np.array_equal(plant.speed(p, times[:, 0]), p.acceleration * times[:, 0]) or not np.array_equal(
+                plant.speed(p, times[:, 1]), p.acceleration * times[:, 1]):
+            raise ValueError("the JAX backend does not carry cutoff_jitter_s on a flight that is not Newtonian yet")
     _, _, delay_length = spec.ring_lengths
     delay = spec.delay_steps(np.arange(max(delay_length, 1)), p.acceleration[:, None]) * np.ones((k, 1), np.int64)
     h = (n + 1) * (n + 2) // 2
@@ -209,7 +221,7 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
 
     return EnvParams(
         step_matrix=array(p.step), envelope=array(np.swapaxes(p.envelope, 1, 2)), limits=array(p.limits),
-        acceleration=array(p.acceleration), delay=jnp.asarray(delay, jnp.int32), launch_phi=array(launch_phi),
+        acceleration=array(p.acceleration), speed_at_cutoff=array(plant.speed(p, np.full(k, cutoff))), delay=jnp.asarray(delay, jnp.int32), launch_phi=array(launch_phi),
         pre_propagator=array(pre_propagator), coast_phi=array(coast_phi), coast_gamma=array(coast_gamma),
         coast_generator=array(coast_generator), action_scale=array(spec.action_scale),
         state_scale=array(spec.state_scale), start_half_widths=array(spec.start_half_widths),
@@ -258,12 +270,12 @@ def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarra
                          f"squarings (at most {MAX_SQUARINGS - 1} with a margin): this task's coast is too long")
 
 
-class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
-    """A planar light-sail task in gymnax's API (``reset(key, params)``, ``step(key, state,
+class SailEnv(environment.Environment[EnvState, EnvParams]):
+    """A light-sail task in gymnax's API (``reset(key, params)``, ``step(key, state,
     action, params)`` with autoreset, the spaces); :func:`sail_env.jax.make` builds one.
 
     The episode is the Numba core's (:mod:`sail_env.core.kernels`, :mod:`sail_env.core.episode`):
-    fed the same draws, both give the same episodes (``tests/jax/test_planar_jax.py``: observations
+    fed the same draws, both give the same episodes (``tests/jax/test_same_draws.py``: observations
     to the bit on a CPU under the XLA flag of :mod:`sail_env.jax.arith` until a noisy coast's draw,
     rewards within 1e-12, terminal pointing within 1e-9). At an episode's end ``info`` carries the
     Gym envs' scores: ``is_success``, ``terminal_pointing_rad`` (NaN before the end, inf after a
@@ -283,6 +295,7 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         self.jitter_inputs = tuple(plant.jitter_inputs) if plant.jittered else ()
         self.delayed, self.noisy, self.sensed = spec.light_delay, plant.noisy, dist.any_sensor_noise
         self.pushed = bool(dist.push_noise)
+        self.jittered_cutoff = bool(dist.cutoff_jitter_s)
         #: Whether an episode draws more than its launch (parameters, cut-off, noise).
         self.randomised = bool(self.noisy or self.sensed or dist.parameter_spread or dist.cutoff_jitter_s)
         self.max_delay, self.history = spec.max_delay, spec.history_length
@@ -494,8 +507,11 @@ class PlanarSailEnv(environment.Environment[EnvState, EnvParams]):
         return result
 
     def _speed_at_cutoff(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """The axial speed at the episode's cut-off (the planar model's ``a t``)."""
-        return params.acceleration[state.draw] * state.cutoff
+        """The axial speed at the episode's cut-off: the plant's at the nominal cut-off, or ``a t`` at a
+        jittered one (a Newtonian flight, checked in :func:`bank_of`)."""
+        if self.jittered_cutoff:
+            return params.acceleration[state.draw] * state.cutoff
+        return params.speed_at_cutoff[state.draw]
 
     def _diverged(self, x: jax.Array, limits: jax.Array) -> jax.Array:
         """The plant's divergence rule (:attr:`~sail_env.core.plant.Plant.divergence_groups`); NaN diverges."""
