@@ -14,7 +14,7 @@ project's Numba vector env (``gym.make_vec(..., vectorization_mode="vector_entry
 N = 1,024, interleaved the same way. Compilation is timed apart (the first call), and so is
 a new process's cold start of the JAX path: import, ``make``, compile and the first step of one
 environment. With ``--readme FILE`` the tables go between that markdown file's ``jax-speed-table``
-markers (docs/performance.md).
+markers (the README).
 """
 
 from __future__ import annotations

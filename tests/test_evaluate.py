@@ -318,8 +318,13 @@ def test_ctrl_c_while_a_report_replaces_another_waits_for_the_swap(earlier: Path
         os.kill(os.getpid(), signal.SIGINT)
         return rename(self, target)
     monkeypatch.setattr(Path, "rename", interrupted_rename)
-    with pytest.raises(KeyboardInterrupt):
-        evaluate.publish(staging, earlier, overwrite=True)
+    # Python's own Ctrl-C handler, whatever started pytest (a shell's background job ignores SIGINT).
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            evaluate.publish(staging, earlier, overwrite=True)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert _files(earlier.parent) == {"earlier/report.json": b"{}"}
 
 
