@@ -425,8 +425,10 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         :data:`CHUNK` at a time (:func:`_on_rows`). ``vmap(step)`` computes both for every
         environment at every step, as ``vmap`` turns a per-environment ``cond`` into a select: for a
         noisy task the coast's matrix exponential then costs most of every step. Under an outer
-        ``vmap`` (over seeds, say) the gathering's loop runs as long as the busiest seed needs: batch
-        the environments of all seeds in one call instead."""
+        ``vmap`` (over seeds, say) the gathering's loop runs, for every seed, as many chunks as the
+        busiest seed needs: nothing where no episode ends, as with one seed (a PPO of 4 seeds on
+        ``LightSailRealistic-v0`` with all their environments in one call trained bit for bit alike,
+        not measurably faster: measured, not kept)."""
         split = jax.vmap(jax.random.split)(keys)
         reset_keys, noise_keys = split[:, 1], jax.vmap(jax.random.split)(split[:, 0])  # as draw_noise splits
         noise = jax.vmap(self._step_noise, in_axes=(0, None))(noise_keys[:, 0], params)
