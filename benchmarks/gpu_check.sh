@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # The JAX backend's GPU goals in one run of under 5 minutes, for a machine with JAX's CUDA build
-# (issue: LightSail-v0 >= 0.5x gymnax CartPole-v1 at N = 10^6 in float64; LightSailRealistic-v0
-# >= 10^9 env-steps/s; PPO >= 99 % within 60 s, 16 seeds in one vmap run). Prepare here, then run it there with the wheels carried:
+# (issues: LightSail-v0 >= 0.5x gymnax CartPole-v1 at N = 10^6 in float64; LightSailRealistic-v0
+# >= 10^9 env-steps/s; LightSail3D-v0 >= 10^8; PPO >= 99 % within 60 s, 16 seeds in one vmap run). Prepare here, then run it there with the wheels carried:
 #
 #   pip download --no-deps -d wheels gymnasium gymnax farama-notifications   # what the CUDA image lacks
 #   bash benchmarks/gpu_check.sh                                             # on the GPU machine
 #
-# Prints the device, the speed table (N = 10^4 ... 10^6, the three planar tasks, and the Numba vector
+# Prints the device, the speed table (N = 10^4 ... 10^6, the backend's four tasks, and the Numba vector
 # env at N = 1,024 on the host) and the PPO run's figures; writes
 # speed_jax_gpu.json and the PPO's runs and report under ${OUT:-/tmp/gpu_check}.
 set -euo pipefail
