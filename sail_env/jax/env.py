@@ -221,7 +221,8 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
 
     return EnvParams(
         step_matrix=array(p.step), envelope=array(np.swapaxes(p.envelope, 1, 2)), limits=array(p.limits),
-        acceleration=array(p.acceleration), speed_at_cutoff=array(plant.speed(p, np.full(k, cutoff))), delay=jnp.asarray(delay, jnp.int32), launch_phi=array(launch_phi),
+        acceleration=array(p.acceleration), speed_at_cutoff=array(plant.speed(p, np.full(k, cutoff))),
+        delay=jnp.asarray(delay, jnp.int32), launch_phi=array(launch_phi),
         pre_propagator=array(pre_propagator), coast_phi=array(coast_phi), coast_gamma=array(coast_gamma),
         coast_generator=array(coast_generator), action_scale=array(spec.action_scale),
         state_scale=array(spec.state_scale), start_half_widths=array(spec.start_half_widths),
@@ -254,14 +255,17 @@ def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
 
 
 def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarray, longest: np.ndarray) -> None:
-    """Refuse a bank whose coast, with any command held (the corners of the action box bound the
-    generator's entries, which are polynomials of degree 2 in the command), needs more than
-    :data:`MAX_SQUARINGS` squarings of its exponential."""
+    """Refuse a bank whose coast needs more than :data:`MAX_SQUARINGS` − 1 squarings of its
+    exponential with a command held at a corner or the centre of the action box. The generator's
+    entries are polynomials of degree 2 in the command, dominated by the sail's own dynamics (on
+    the realistic coast the command leaves the 1-norm unchanged, measured over 64 draws), and the
+    one squaring of margin covers a norm twice as large."""
     n, m = plant.n_states, plant.n_inputs
     pick, lift0, lift1, lift2 = held_input_maps(n, m)
     into, _ = balancing(plant.start_limits())
     worst = 0.0
-    for corner in np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T * spec.action_scale:
+    corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T
+    for corner in np.vstack([corners, np.zeros(m)]) * spec.action_scale:
         lift = lift0 + np.tensordot(corner, lift1, 1) + np.tensordot(np.outer(corner, corner), lift2, 2)
         coast = (pick @ generator @ lift) * (longest[:, None, None] * into)
         worst = max(worst, float(np.abs(coast).sum(axis=-2).max()))
