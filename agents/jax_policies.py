@@ -26,6 +26,7 @@ import numpy as np
 from agents.lqg import LQGAgent
 from agents.lqr import LQRAgent
 from sail_env.core.spec import EpisodeSpec
+from sail_env.jax.env import arrived_command
 
 Memory = Any
 
@@ -76,7 +77,7 @@ def lqg_policy(spec: EpisodeSpec) -> Policy:
     scale = jnp.asarray(spec.action_scale)
 
     def applied(sent: jax.Array, step: jax.Array, newest: jax.Array) -> jax.Array:
-        index = jnp.minimum(step - delay[step], newest)  # :func:`sail_env.core.delay.arrived_command`
+        index = arrived_command(step, delay[step], newest)
         return jnp.where(index >= 0, sent[jnp.maximum(index, 0)], 0.0)
 
     def advance(sent: jax.Array, newest: jax.Array, state: jax.Array, step: jax.Array,

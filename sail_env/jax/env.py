@@ -177,15 +177,14 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
     if unsupported:
         raise ValueError(f"the JAX backend does not carry {', '.join(unsupported)} yet: it has the planar tasks "
                          f"and LightSail3D-v0")
-    p = plant.params(factors) if dist.parameter_spread else plant.params(np.ones((1, plant.n_factors)))
+    p = plant.params(factors)  # shared (one row) without spread
     k, n, m = len(p.acceleration), plant.n_states, plant.n_inputs
     config = spec.config
     cutoff, window_end = config.beam_cutoff_s, config.control_start_s + spec.n_steps * spec.dt
     if dist.cutoff_jitter_s:  # the episode's speed at its cut-off is then a t: the flight must be Newtonian
-        times = np.array([cutoff - dist.cutoff_jitter_s, cutoff + dist.cutoff_jitter_s]) * np.ones((k, 1))
-        if not np.array_equal(plant.speed(p, times[:, 0]), p.acceleration * times[:, 0]) or not np.array_equal(
-                plant.speed(p, times[:, 1]), p.acceleration * times[:, 1]):
-            raise ValueError("the JAX backend does not carry cutoff_jitter_s on a flight that is not Newtonian yet")
+        for time in (cutoff - dist.cutoff_jitter_s, cutoff + dist.cutoff_jitter_s):
+            if not np.array_equal(plant.speed(p, np.full(k, time)), p.acceleration * time):
+                raise ValueError("the JAX backend does not carry cutoff_jitter_s on a flight that is not Newtonian yet")
     _, _, delay_length = spec.ring_lengths
     delay = spec.delay_steps(np.arange(max(delay_length, 1)), p.acceleration[:, None]) * np.ones((k, 1), np.int64)
     h = (n + 1) * (n + 2) // 2
@@ -230,6 +229,12 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
         push_noise=array(dist.push_noise), into_units=array(into), from_units=array(back),
         control_start_s=array(config.control_start_s), dt=array(spec.dt), beam_cutoff_s=array(cutoff),
         cutoff_jitter_s=array(dist.cutoff_jitter_s), max_steps_in_episode=spec.n_steps, coast_pieces=pieces)
+
+
+def arrived_command(step: jax.Array, delay: jax.Array, newest: jax.Array | int) -> jax.Array:
+    """:func:`sail_env.core.delay.arrived_command` in JAX: the index of the command acting during
+    ``step`` (one-way delay ``delay`` steps), at most ``newest``; negative before any has arrived."""
+    return jnp.minimum(step - delay, newest)
 
 
 def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
@@ -280,8 +285,8 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
 
     The episode is the Numba core's (:mod:`sail_env.core.kernels`, :mod:`sail_env.core.episode`):
     fed the same draws, both give the same episodes (``tests/jax/test_same_draws.py``: observations
-    to the bit on a CPU under the XLA flag of :mod:`sail_env.jax.arith` until a noisy coast's draw,
-    rewards within 1e-12, terminal pointing within 1e-9). At an episode's end ``info`` carries the
+    to the bit on a CPU under the XLA flag of :mod:`sail_env.jax.arith`, rewards within 1e-12,
+    terminal pointing within 1e-9, after a noisy coast within 1e-8 or 1e-16 rad). At an episode's end ``info`` carries the
     Gym envs' scores: ``is_success``, ``terminal_pointing_rad`` (NaN before the end, inf after a
     divergence) and ``diverged``.
     """
@@ -332,15 +337,13 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         spends ``key`` on the launch alone."""
         half, dtype = params.start_half_widths, params.start_half_widths.dtype
         n, pre_shape = self.n_states, (self.max_delay, len(self.jitter_inputs) + 1)
+        keys = jax.random.split(key, 6) if self.randomised else [key]
+        if launch is None:
+            launch = -half + (half - -half) * jax.random.uniform(keys[0], half.shape, dtype=dtype)
         if not self.randomised:
-            if launch is None:
-                launch = -half + (half - -half) * jax.random.uniform(key, half.shape, dtype=dtype)
             zeros = jnp.zeros(n, dtype)
             return EpisodeStart(launch=launch, draw=jnp.zeros((), jnp.int32), cutoff=params.beam_cutoff_s,
                                 pre_coast=zeros, pre_steps=jnp.zeros(pre_shape, dtype), sensor=zeros)
-        keys = jax.random.split(key, 6)
-        if launch is None:
-            launch = -half + (half - -half) * jax.random.uniform(keys[0], half.shape, dtype=dtype)
         jitter = params.cutoff_jitter_s
         u_cut = jax.random.uniform(keys[2], (), dtype=dtype)
         return EpisodeStart(
@@ -493,7 +496,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
                  commands: jax.Array) -> jax.Array:
         """The command acting during ``step``: the newest sent by ``newest`` that has arrived, zero
         before any has (:func:`sail_env.core.delay.arrived_command`)."""
-        sent = jnp.minimum(step - params.delay[d, step], newest)
+        sent = arrived_command(step, params.delay[d, step], newest)
         return jnp.where(sent >= 0, commands[sent % self.command_ring], 0.0)
 
     def _physics(self, params: EnvParams, d: jax.Array, x: jax.Array, inputs: jax.Array,
