@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import re
+import stat
 import sys
 import tempfile
 import warnings
@@ -152,8 +155,27 @@ def readme_around_section(readme: Path, name: str) -> tuple[str, str]:
     return head, rest.split(end, 1)[1]
 
 
+def write_whole(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all: into a file beside it, then renamed over it, so
+    that Ctrl-C or a full disk leaves the old file as it was (a README's hand-written text, a kept export)."""
+    temporary = tempfile.NamedTemporaryFile("w", encoding="utf-8", dir=path.parent, prefix=f".{path.name}.",
+                                            suffix=".tmp", delete=False)
+    try:
+        with temporary:
+            temporary.write(text)
+        # The file keeps its permissions (a new one gets the umask's), not the temporary file's 0600.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary.name, stat.S_IMODE(os.stat(path).st_mode) if path.exists() else 0o666 & ~umask)
+        os.replace(temporary.name, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary.name)
+        raise
+
+
 def replace_readme_section(readme: Path, name: str, body: str) -> None:
-    """Put ``body`` between the README's markers of section ``name``."""
+    """Put ``body`` between the README's markers of section ``name`` (the file replaced whole)."""
     head, tail = readme_around_section(readme, name)
     start, end = section_markers(name)
-    readme.write_text(f"{head}{start}\n{body}\n{end}{tail}")
+    write_whole(readme, f"{head}{start}\n{body}\n{end}{tail}")

@@ -83,6 +83,6 @@ def read(path: Path, study_name: str, flag: str) -> dict[str, Any]:
 
 
 def write(path: Path, kept: dict[str, Any]) -> None:
-    """Write :func:`kept_trials` to ``path`` (its folder made if need be)."""
+    """Write :func:`kept_trials` to ``path`` (its folder made if need be), whole or not at all."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(kept, indent=1) + "\n")
+    cli.write_whole(path, json.dumps(kept, indent=1) + "\n")

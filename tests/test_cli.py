@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from agents import evaluation, grid, training, tuning
+from agents import cli, evaluation, grid, training, tuning
 
 ROOT = Path(__file__).resolve().parents[1]
 MAINS: dict[str, Callable[[list[str]], int]] = {"train.py": training.main, "evaluate.py": evaluation.main,
@@ -113,3 +113,26 @@ def test_help_is_plain_text_with_each_default_once(script: str, capsys: pytest.C
     module = {"train.py": training, "evaluate.py": evaluation, "agents.grid": grid, "agents.tuning": tuning}[script]
     last_line = [line for line in module.__doc__.replace("``", "").splitlines() if line.strip()][-1]
     assert " ".join(last_line.split()) in " ".join(text.split())
+
+
+def test_a_readme_section_is_replaced_whole_or_not_at_all(tmp_path, monkeypatch) -> None:
+    """The README is written beside itself and renamed over: its permissions stay, nothing is left
+    behind, and an interrupted rename leaves the old text as it was."""
+    import os
+    import stat
+
+    readme = tmp_path / "README.md"
+    readme.write_text("intro\n<!-- part:start -->\nold\n<!-- part:end -->\nend\n")
+    readme.chmod(0o644)
+    cli.replace_readme_section(readme, "part", "new")
+    assert readme.read_text() == "intro\n<!-- part:start -->\nnew\n<!-- part:end -->\nend\n"
+    assert stat.S_IMODE(readme.stat().st_mode) == 0o644 and os.listdir(tmp_path) == ["README.md"]
+
+    def interrupted(source, target):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        cli.replace_readme_section(readme, "part", "newer")
+    assert "new\n" in readme.read_text() and "newer" not in readme.read_text()
+    assert os.listdir(tmp_path) == ["README.md"]
