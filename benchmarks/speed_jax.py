@@ -11,7 +11,7 @@ each) and the best round of each counts: a neighbour's burst slows a round, neve
 The table gives env-steps/s and the ratio subject ÷ peer at each N, on whatever device JAX finds
 (its name and the CPU model are printed). A second table sets the JAX backend against the
 project's Numba vector env (``gym.make_vec(..., vectorization_mode="vector_entry_point")``) at
-N = 1,024, interleaved the same way. Compilation is timed apart (the first call), and so is
+N = 1,024, interleaved the same way, and against the backend's own ``vmap(env.step)``. Compilation is timed apart (the first call), and so is
 a new process's cold start of the JAX path: import, ``make``, compile and the first step of one
 environment. With ``--readme FILE`` the tables go between that markdown file's ``jax-speed-table``
 markers (the README).
@@ -51,11 +51,12 @@ print(time.perf_counter() - start)
 """
 
 
-def rollout(env, params, envs: int, steps: int, continuous: bool):
+def rollout(env, params, envs: int, steps: int, continuous: bool, batched: bool = True):
     """A jitted function of a key: ``steps`` autoresetting steps of ``envs`` environments (the
-    backend's ``step_batch`` for a sail, gymnax's ``vmap(step)`` for the peer); returns the rewards'
-    sum (so that nothing is optimised away)."""
-    step = getattr(env, "step_batch", None) or jax.vmap(env.step, in_axes=(0, 0, 0, None))
+    backend's ``step_batch`` for a sail unless not ``batched``, gymnax's ``vmap(step)`` otherwise);
+    returns the rewards' sum (so that nothing is optimised away)."""
+    step = getattr(env, "step_batch", None) if batched else None
+    step = step or jax.vmap(env.step, in_axes=(0, 0, 0, None))
 
     def run(key):
         obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, envs), params)
@@ -159,21 +160,28 @@ def main(argv: list[str] | None = None) -> int:
             print(lines[-1], flush=True)
     lines += ["", f"Against the project's Numba vector env at N = {NUMBA_ENVS:,} (one process, the same interleaving):",
               "",
-              "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba |", "|---|---:|---:|---:|"]
+              "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba | JAX through `vmap(step)` | `step_batch` ÷ it |",
+              "|---|---:|---:|---:|---:|---:|"]
     print("\n".join(lines[-4:]), flush=True)
     for task in SUBJECTS:
         env, params = sail_env.jax.make(task)
         subject = rollout(env, params, NUMBA_ENVS, args.steps, continuous=True)
         timed(subject, jax.random.key(0))
+        vmapped = rollout(env, params, NUMBA_ENVS, args.steps, continuous=True, batched=False)
+        timed(vmapped, jax.random.key(0))
         numba = numba_rollout(task, NUMBA_ENVS, args.steps)
         numba_timed(numba, 0)  # compiles the kernels, fills the cache
-        best_numba = best_subject = float("inf")
+        best_numba = best_subject = best_vmapped = float("inf")
         for r in range(args.rounds):
             best_numba = min(best_numba, numba_timed(numba, r + 1))
             best_subject = min(best_subject, timed(subject, jax.random.key(r + 1)))
-        rate, numba_rate = NUMBA_ENVS * args.steps / best_subject, NUMBA_ENVS * args.steps / best_numba
-        rows.append({"task": task, "envs": NUMBA_ENVS, "rate": rate, "numba_rate": numba_rate})
-        lines.append(f"| {task} | {rate:.3g} | {numba_rate:.3g} | {rate / numba_rate:.2f}× |")
+            best_vmapped = min(best_vmapped, timed(vmapped, jax.random.key(r + 1)))
+        rate, numba_rate, vmapped_rate = (NUMBA_ENVS * args.steps / best
+                                          for best in (best_subject, best_numba, best_vmapped))
+        rows.append({"task": task, "envs": NUMBA_ENVS, "rate": rate, "numba_rate": numba_rate,
+                     "vmapped_rate": vmapped_rate})
+        lines.append(f"| {task} | {rate:.3g} | {numba_rate:.3g} | {rate / numba_rate:.2f}× | {vmapped_rate:.3g} "
+                     f"| {rate / vmapped_rate:.1f}× |")
         print(lines[-1], flush=True)
     cold = cold_start_s()
     lines += ["", f"A new process's import, make, compile and first step of `LightSail-v0`: {cold:.1f} s."]

@@ -262,9 +262,8 @@ def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
 def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarray, longest: np.ndarray) -> None:
     """Refuse a bank whose coast needs more than :data:`MAX_SQUARINGS` − 1 squarings of its
     exponential with a command held at a corner or the centre of the action box. The generator's
-    entries are polynomials of degree 2 in the command, dominated by the sail's own dynamics (on
-    the realistic coast the command leaves the 1-norm unchanged, measured over 64 draws), and the
-    one squaring of margin covers a norm twice as large."""
+    entries are polynomials of degree 2 in the command, dominated by the sail's own dynamics, and
+    the one squaring of margin covers a norm twice as large."""
     n, m = plant.n_states, plant.n_inputs
     pick, lift0, lift1, lift2 = held_input_maps(n, m)
     into, _ = balancing(plant.start_limits())

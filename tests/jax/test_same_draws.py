@@ -208,3 +208,35 @@ def test_float32_keeps_the_scores_to_its_rounding() -> None:
     assert np.median(error) < 1e-4 and error.max() < 0.05
     assert np.abs(reward32 - reward64).max() < 1e-2
     assert 0.1 < success64.mean() < 0.9 and np.sum(success32 != success64) <= envs // 100
+
+
+def test_both_backends_coast_exponentials_hold_the_moments_to_their_stated_accuracy() -> None:
+    """The noisy coast's tolerance above rests on this: on a realistic coast's balanced moment
+    generator (1-norm ~5e5) SciPy's and JAX's matrix exponentials are each within 5e-11 of a 40-digit
+    mpmath one (of its largest entry; docs/physics.md §3 gives 1.4e-11 and 7e-12), and the draws they
+    lead to are within 1e-16 rad of pointing of each other."""
+    import mpmath
+    import scipy.linalg
+
+    from sail_env.physics.noise import balancing, held_input_maps
+
+    env, params = sail_env.jax.make("LightSailRealistic-v0", draws=1)
+    plant, n, m = env.spec.plant, env.n_states, env.n_inputs
+    command = np.array([0.6, -0.3]) * env.spec.action_scale
+    pick, lift0, lift1, lift2 = held_input_maps(n, m)
+    lift = lift0 + np.tensordot(command, lift1, 1) + np.tensordot(np.outer(command, command), lift2, 2)
+    generator = np.asarray(params.coast_generator[0]) @ lift
+    into, back = balancing(plant.start_limits())
+    balanced = generator * (588.7 * into)
+    assert 2e5 < np.abs(balanced).sum(axis=0).max() < 1e6
+    mpmath.mp.dps = 40
+    exact = np.array(mpmath.expm(mpmath.matrix(balanced.tolist())).tolist(), dtype=float)
+    exponentials = (scipy.linalg.expm(balanced), np.asarray(jax.scipy.linalg.expm(jnp.asarray(balanced),
+                                                                                    max_squarings=20)))
+    for computed in exponentials:
+        assert np.abs(computed - exact).max() < 5e-11 * np.abs(exact).max()
+    x = jnp.asarray([1e-3, 2e-2, 1e-5, 1e-4])
+    normals = jnp.asarray(np.random.default_rng(0).standard_normal(n))
+    draws = [np.asarray(env._sample(jnp.asarray(e * back), x, normals)) for e in exponentials]
+    speed = float(params.speed_at_cutoff[0])
+    assert abs(abs(draws[0][1]) - abs(draws[1][1])) / speed < 1e-16
