@@ -11,7 +11,8 @@ each) and the best round of each counts: a neighbour's burst slows a round, neve
 The table gives env-steps/s and the ratio subject ÷ peer at each N, on whatever device JAX finds
 (its name and the CPU model are printed). A second table sets the JAX backend against the
 project's Numba vector env (``gym.make_vec(..., vectorization_mode="vector_entry_point")``) at
-N = 1,024, interleaved the same way, and against the backend's own ``vmap(env.step)``. Compilation is timed apart (the first call), and so is
+N = 1,024, interleaved the same way, and against the backend's own ``vmap(env.step)``.
+Compilation is timed apart (the first call), and so is
 a new process's cold start of the JAX path: import, ``make``, compile and the first step of one
 environment. With ``--readme FILE`` the tables go between that markdown file's ``jax-speed-table``
 markers (the README).
@@ -160,7 +161,8 @@ def main(argv: list[str] | None = None) -> int:
             print(lines[-1], flush=True)
     lines += ["", f"Against the project's Numba vector env at N = {NUMBA_ENVS:,} (one process, the same interleaving):",
               "",
-              "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba | JAX through `vmap(step)` | `step_batch` ÷ it |",
+              "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba | JAX through `vmap(step)` "
+              "| `step_batch` ÷ it |",
               "|---|---:|---:|---:|---:|---:|"]
     print("\n".join(lines[-4:]), flush=True)
     for task in SUBJECTS:
