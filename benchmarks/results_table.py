@@ -5,7 +5,7 @@ from a file in ``benchmarks/results/`` (no storage, no runs, no training: a few 
     python -m benchmarks.results_table --readme README.md   # also put it between README's results-table markers
 
 Each task's row comes from one set of 200 paired episodes (seeds 100000–100199, evaluate.py's default):
-the kept benchmark grids (``agents.grid export``: :data:`GRIDS`) and, for ``LightSailUncertain-v1``,
+the kept benchmark grids (``agents.grid export``: :data:`GRIDS`) and, for the uncertain-model tasks,
 whose learners were evaluated by ``benchmarks.ceiling``, its results (:data:`UNCERTAIN`). A grid cell
 played again (``agents.grid redo``) counts by its latest trial, as in ``agents.grid render``. Learners
 are the grids' ``tuned`` cells (the shipped YAML; seeds 0–2) and the runs :data:`UNCERTAIN_LEARNERS`
@@ -31,10 +31,11 @@ ROOT = Path(__file__).resolve().parents[1]
 GRIDS = {name: ROOT / "benchmarks" / "results" / "grid" / f"{name}.json" for name in ("easy", "3d", "realistic")}
 #: ``benchmarks.ceiling``'s results on the uncertain-model task (its learners are train.py runs).
 UNCERTAIN = ROOT / "benchmarks" / "results" / "uncertain.json"
-UNCERTAIN_TASK = "LightSailUncertain-v1"
+#: The uncertain-model tasks in :data:`UNCERTAIN`: the current version, and v1, on which its learners were trained.
+UNCERTAIN_TASKS = ("LightSailUncertain-v2", "LightSailUncertain-v1")
 #: The table's rows, in order.
 TASKS = ("LightSail-v0", "LightSailDeepDish-v0", "LightSail3D-v0", "LightSailRealistic-v0",
-         "LightSail3DRealistic-v1", UNCERTAIN_TASK)
+         "LightSail3DRealistic-v1", *UNCERTAIN_TASKS)
 #: The classical designs a learner is compared with (the best of them on the task).
 DESIGNS = ("lqr", "lqg", "lqg-mm", "lqg-mm-offset")
 #: The bounds that read the simulator's truth (``agents/oracle.py``).
@@ -42,16 +43,16 @@ BOUNDS = ("lqr-oracle", "lqg-oracle")
 #: How the table names the grids' agents.
 NAMES = {"passive": "passive", "lqr": "LQR", "lqg": "LQG", "lqg-mm": "`lqg-mm`", "lqg-mm-offset": "`lqg-mm-offset`",
          "ppo": "PPO", "sac": "SAC", "td3": "TD3", "recurrent_ppo": "RecurrentPPO"}
-#: The uncertain task's learners in :data:`UNCERTAIN`: a label, whether it corrects a classical
-#: design (a residual), and its runs (one per seed).
-UNCERTAIN_LEARNERS = (
+#: The uncertain tasks' learners in :data:`UNCERTAIN`, per task: a label, whether it corrects a
+#: classical design (a residual), and its runs (one per seed).
+UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (), "LightSailUncertain-v1": (
     ("PPO residual on `lqg-mm-offset`", True,
      tuple(f"runs/tuned/ppo-residual-offset-v1-seed{seed}/best_model.zip" for seed in range(3))),
     ("PPO residual on `lqg-mm`", True, ("runs/tuned/ppo-residual-uncertain-seed0/best_model.zip",)),
     ("RecurrentPPO (untuned)", False, ("runs/tuned/rppo-uncertain-v1-seed0/best_model.zip",)),
     ("PPO (the study's trial)", False, ("runs/tuning/tune-ppo-LightSailUncertain-v1/trial-1/best_model.zip",)),
     ("PPO (v1's settings)", False, ("runs/tuned/ppo-uncertain-v1-from-v1-seed0/best_model.zip",)),
-)
+)}
 SECTION = "results-table"
 HEADER = ("| task | passive | LQR | LQG | best classical design | best learner (seeds) | "
           "learner vs that design (paired, 95 % CI) | ceiling (a bound) |\n"
@@ -105,13 +106,13 @@ def grid_tasks(path: Path) -> dict[str, Task]:
     return tasks
 
 
-def uncertain_task(path: Path) -> Task:
-    """The uncertain task from ``benchmarks.ceiling``'s results: the classical agents and bounds by
+def uncertain_task(path: Path, env: str) -> Task:
+    """An uncertain task from ``benchmarks.ceiling``'s results: the classical agents and bounds by
     name, the learners of :data:`UNCERTAIN_LEARNERS` by their runs."""
-    agents = json.loads(path.read_text())[UNCERTAIN_TASK]["agents"]
+    agents = json.loads(path.read_text())[env]["agents"]
     classical = {name: np.array(row["success"], bool) for name, row in agents.items() if not name.endswith(".zip")}
     learners = [Learner(label, residual, np.array([agents[run]["success"] for run in runs], bool))
-                for label, residual, runs in UNCERTAIN_LEARNERS]
+                for label, residual, runs in UNCERTAIN_LEARNERS[env]]
     return Task(classical, learners, 0, str(path.relative_to(ROOT)))
 
 
@@ -120,7 +121,8 @@ def kept_tasks() -> dict[str, Task]:
     tasks: dict[str, Task] = {}
     for path in GRIDS.values():
         tasks.update(grid_tasks(path))
-    tasks[UNCERTAIN_TASK] = uncertain_task(UNCERTAIN)
+    for env in UNCERTAIN_TASKS:
+        tasks[env] = uncertain_task(UNCERTAIN, env)
     return tasks
 
 
@@ -142,7 +144,9 @@ def row(env: str, task: Task) -> tuple[str, str | None]:
     design = max((name for name in DESIGNS if name in rates), key=lambda name: rates[name])  # first of equals
     bounds = [rates[name] for name in BOUNDS if name in rates]
     ceiling = percent(max(bounds)) if bounds else f"{percent(rates['lqr'])} (LQR)‡"
-    learner, versus, note = "queued¹", "–", None
+    learner, versus, note = "queued¹" if task.queued else "–", "–", None
+    if not task.learners and not task.queued:
+        note = f"`{env}`: no learner has been evaluated on it yet."
     if task.learners:
         best = max(task.learners, key=lambda learner: learner.rate)
         d = paired_difference(best.successes, task.classical[design])

@@ -57,7 +57,8 @@ VECTOR_SIZES = (1, 64, 1024, 16384)
 HARD_TASK = "LightSail3DRealistic-v1"
 #: The realistic 3D tasks' coast costs ~0.1 s of CPU per episode: a round of whole episodes at
 #: N = 1024 would take minutes, so their vector cells stop at this N ("–" beyond).
-SLOW_TASKS = {"LightSail3DRealistic-v0", HARD_TASK, "LightSailUncertain-v0", "LightSailUncertain-v1"}
+SLOW_TASKS = {"LightSail3DRealistic-v0", HARD_TASK, "LightSailUncertain-v0", "LightSailUncertain-v1",
+              "LightSailUncertain-v2"}
 SLOW_TASKS_MAX_ENVS = 64
 #: What one process's start runs: import, make, reset and one step (the first compiles what it needs).
 START_SCRIPT = ("import time; t = time.perf_counter(); import gymnasium as gym, numpy as np; import sail_env; "

@@ -17,7 +17,7 @@ from gymnasium.envs.registration import register, registry
 
 from sail_env.tasks import ENTRY_POINTS, JAX_TASKS, PLANAR_TASKS, RIGID3D_TASKS
 
-__version__ = "0.4.0"
+__version__ = "0.5.0"
 
 for _family, _tasks in (("planar", PLANAR_TASKS), ("rigid3d", RIGID3D_TASKS)):
     for _task_id, _kwargs in _tasks.items():

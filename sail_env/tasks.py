@@ -100,13 +100,17 @@ RIGID3D_TASKS["LightSail3DRealistic-v1"] = {
     "beam_radius_m": GAUSSIAN_WAIST_OVER_APERTURE * SEED.aperture_radius_m,
     "ground_jitter_rad": GROUND_JITTER_GAUSSIAN_BENCHMARK_RAD}
 
-#: LightSailUncertain-v1: LightSail3DRealistic-v1 whose sail the station knows only to within
+#: LightSailUncertain-v2: LightSail3DRealistic-v1 whose sail the station knows only to within
 #: :data:`~sail_env.physics.rigid3d.uncertainty.TASK_UNCERTAINTY` (curvature ±20 %, absorptivity ±50 %,
 #: power at the sail ±20 %, a beam offset ±1 cm; per episode, unobserved; docs/physics.md §16).
-#: LightSailUncertain-v0 drew every one of them within ±parameter_spread (``v0_draws``), by mistake.
+#: LightSailUncertain-v1 held each draw's difference from the nominal sail at its unwidened spot's value
+#: beyond ``L0`` (``v1_widening``); v0 also drew every factor within ±parameter_spread (``v0_draws``).
+_V1_UNCERTAINTY = dataclasses.replace(TASK_UNCERTAINTY, v1_widening=True)
 RIGID3D_TASKS["LightSailUncertain-v0"] = {**RIGID3D_TASKS["LightSail3DRealistic-v1"],
-                                          "model_uncertainty": dataclasses.replace(TASK_UNCERTAINTY, v0_draws=True)}
+                                          "model_uncertainty": dataclasses.replace(_V1_UNCERTAINTY, v0_draws=True)}
 RIGID3D_TASKS["LightSailUncertain-v1"] = {**RIGID3D_TASKS["LightSail3DRealistic-v1"],
+                                          "model_uncertainty": _V1_UNCERTAINTY}
+RIGID3D_TASKS["LightSailUncertain-v2"] = {**RIGID3D_TASKS["LightSail3DRealistic-v1"],
                                           "model_uncertainty": TASK_UNCERTAINTY}
 
 TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}

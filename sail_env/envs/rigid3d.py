@@ -120,7 +120,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``start_half_widths`` | see above | 8 half-widths in state order | the box's corner inside the start limits (``√(x² + y²) ≤ a`` and so on) |
     | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.physics.randomisation.Randomisation`; ``light_delay``: :class:`~sail_env.core.EpisodeSpec` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power | ``[0, 0.5)`` |
-    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v1``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``[0, a]``: a constant offset beyond the rim centres the spot off the sail |
+    | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v2``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``[0, a]``: a constant offset beyond the rim centres the spot off the sail |
 
     ``reset(options={"params": {...}})`` changes these keywords for this and the later episodes, as
     :class:`~sail_env.envs.planar.LightSailEnv`'s Reset Options say (a
@@ -152,7 +152,7 @@ class LightSail3DEnv(LightSailEnv):
     constant torque about y and the equilibrium tilts until the force line passes through the CoM;
     it is modelled fixed in the lab frame (with spin it turns at ``Ω`` in truth, see §15).
 
-    ``model_uncertainty`` (``LightSailUncertain-v1``: curvature ±20 %, absorptivity ±50 %, power at the
+    ``model_uncertainty`` (``LightSailUncertain-v2``: curvature ±20 %, absorptivity ±50 %, power at the
     sail ±20 %, a beam offset ±1 cm; docs/physics.md §16) draws per episode what the ground station
     designs on but cannot know in flight, on top of ``parameter_spread``; nothing of it is observed:
 
@@ -165,6 +165,13 @@ class LightSail3DEnv(LightSailEnv):
 
     ## Version History
 
+    * ``LightSailUncertain-v2`` (lightsail-gym 0.5.0): in a spot widened beyond ``L0`` each draw has its
+      own sail's radiation terms in that spot (a table over curvature, absorptivity and the spot's
+      scale), and its beam offset drives through the widened spot's ``B``. ``-v1`` added the draw's
+      difference from the nominal sail at the unwidened spot undiminished, a first-order error: 17 % of
+      the coast's radiation terms at ``s = 1.24``, 3.8 times them at 1.79; ~19 % of its episodes widen
+      before cut-off. v0 and v1 keep playing so (``ModelUncertainty.v1_widening``), their numbers
+      unchanged; v2's episodes that never widen are v1's to the bit (docs/physics.md §16).
     * ``LightSailUncertain-v1`` (lightsail-gym 0.4.0): the uncertain factors are drawn over their
       documented ranges (curvature ±20 %, absorptivity ±50 %, power ±20 %, beam offset ±1 cm).
       ``-v0``'s episodes drew every one of them within ``1 ± parameter_spread`` (±10 %, the offset

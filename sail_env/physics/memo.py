@@ -1,7 +1,8 @@
 """Tables built once: per process, and across processes on disk.
 
 Building a 3D realistic task integrates flights and runs surface quadratures: ~0.75 s for
-``LightSail3DRealistic-v1``, ~1.1 s more for ``LightSailUncertain-v1``'s curvature table. Every
+``LightSail3DRealistic-v1``, ~1.1 s more for ``LightSailUncertain-v1``'s curvature table, ~12 s more
+for ``LightSailUncertain-v2``'s curvature table over the widened spot. Every
 ``gym.make`` of the same task needs the same tables: the envs of a vector, an evaluation, a benchmark
 grid's cells, every worker of a ``SubprocVecEnv``, every new process. :func:`built_once` keeps what a
 factory built for each distinct tuple of arguments (frozen configurations and numbers, hashable and

@@ -102,22 +102,31 @@ class ScaleTable:
 
     def _blend(self, table: np.ndarray, scale: np.ndarray) -> np.ndarray:
         """``table`` (grid, ...) interpolated as ``s² R`` linearly in ``ln s``, divided by ``s²``."""
-        log_scale = np.log(np.asarray(scale, float))
-        if np.any(log_scale > math.log(max(self.top, 1.0)) + 1e-12):
-            raise ValueError(f"beam scale {float(np.exp(log_scale.max()))} is beyond the table's {self.top}")
-        index = np.zeros(log_scale.shape, dtype=np.int64)
-        frac = np.zeros(log_scale.shape)
-        beyond = log_scale > 0.0
-        if np.any(beyond):
-            grid = self.log_scales[1:]
-            weight = np.interp(log_scale[beyond], grid, np.arange(grid.size))
-            low = np.minimum(weight.astype(np.int64), grid.size - 2)
-            index[beyond], frac[beyond] = 1 + low, weight - low
-        upper = np.minimum(index + 1, self.log_scales.size - 1)
+        index, upper, mix, inverse = blend_weights(self.log_scales, self.top, scale)
         trailing = (slice(None),) + (None,) * (table.ndim - 1)
-        inverse = (1.0 / np.maximum(scale, 1.0) ** 2)[trailing]
-        mix = frac[trailing]
-        return inverse * ((1 - mix) * table[index] + mix * table[upper])
+        return inverse[trailing] * ((1 - mix[trailing]) * table[index] + mix[trailing] * table[upper])
+
+
+def blend_weights(log_scales: np.ndarray, top: float,
+                  scale: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """How a table weighted by ``s²`` on the grid ``log_scales`` (:func:`scale_grid`, up to ``top``) is
+    read at scales (k,): the grid points below and above each, the weight of the upper one and
+    ``1/s²``, so that the read is ``inverse ((1 − mix) T[index] + mix T[upper])``. Up to ``s = 1`` the
+    first point alone, beyond never mixed with it (an edge may sit at ``s = 1``). ``ValueError``
+    beyond ``top``."""
+    log_scale = np.log(np.asarray(scale, float))
+    if np.any(log_scale > math.log(max(top, 1.0)) + 1e-12):
+        raise ValueError(f"beam scale {float(np.exp(log_scale.max()))} is beyond the table's {top}")
+    index = np.zeros(log_scale.shape, dtype=np.int64)
+    frac = np.zeros(log_scale.shape)
+    beyond = log_scale > 0.0
+    if np.any(beyond):
+        grid = log_scales[1:]
+        weight = np.interp(log_scale[beyond], grid, np.arange(grid.size))
+        low = np.minimum(weight.astype(np.int64), grid.size - 2)
+        index[beyond], frac[beyond] = 1 + low, weight - low
+    upper = np.minimum(index + 1, log_scales.size - 1)
+    return index, upper, frac, 1.0 / np.maximum(scale, 1.0) ** 2
 
 
 @built_once

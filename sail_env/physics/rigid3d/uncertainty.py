@@ -24,17 +24,18 @@ also does not observe. Every draw is cheap: no surface quadrature runs at a rese
   constant drive ``B[:, :2] b`` carried in the plant's constant-term column (as the payload's, §15).
 
 The draw's terms enter the model as differences from the nominal sail's, so a draw of all ones is
-exactly the nominal model. In a widened spot (beyond ``L0``) a draw takes the nominal sail's change
-with the spot plus its own difference at ``s = 1``, held at full strength while the nominal's terms fall
-with the intensity ``∝ 1/s²``. That is first order in the draw times the widening, not second: against a
-``RigidPlant`` of the drawn sail (R ×1.15, α ×1.4, power ×0.85) the coast's radiation terms are 1.3 % off
-at ``s = 1.03``, 4.8 % at 1.10 and 17 % at 1.24 (the task's fastest draws reach 1.22; ~19 % of its
-episodes widen before cut-off), 3.8 times the terms at ``s = 1.8``; far beyond ``L0`` the undiminished
-difference alone sets the model (a growth of 63 /s at ``L0 = 3e6`` m, issue 42). Scaling the difference
-by ``1/s²`` would cut these to 0.9 %, 2.8 %, 5.6 % and 10 %, but changes the numbers of the registered
-task's widening episodes: it waits for a new version. The gyroscopic coupling ``I_a Ω / I_t`` is held at the
-nominal dish's: it is 1.05e-2 rad/s at the task's 1 rad/s spin (1.7e-4 of the slow mode, 60.6 rad/s)
-and changes by −1.3 % to +2.5 % over ``R₀ ± 20 %``, 4e-6 of the slow mode.
+exactly the nominal model. In a spot widened beyond ``L0`` the difference is the drawn sail's own in that
+spot (:class:`WidenedCurvatureTable`: the 9 radii at every point of the widened spot's grid): against a
+``RigidPlant`` of the drawn sail (R ×1.15, α ×1.4, power ×0.85) the coast's radiation terms are 6e-5 off
+at ``s = 1.03``, 4e-4 at 1.24 and 6e-3 at 1.79 (the draw flies the nominal push law scaled by its ``F/m``,
+so its spot is a little off that sail's own flight's). ``LightSailUncertain-v1`` (``v1_widening``) added
+the difference at ``s = 1`` undiminished instead: first order in the draw times the widening, 1.3 % off at
+``s = 1.03``, 17 % at 1.24 (the task's fastest draws reach 1.38 by the latest cut-off; ~19 % of its
+episodes widen before cut-off) and 3.8 times the terms at 1.79.
+
+The gyroscopic coupling ``I_a Ω / I_t`` is held at the nominal dish's: it is 1.05e-2 rad/s at the
+task's 1 rad/s spin (1.7e-4 of the slow mode, 60.6 rad/s) and changes by −1.3 % to +2.5 % over
+``R₀ ± 20 %``, 4e-6 of the slow mode.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidTaskC
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation
-from sail_env.physics.rigid3d.scales import cleaned
+from sail_env.physics.rigid3d.scales import blend_weights, cleaned, scale_grid
 
 #: Radii at which :class:`CurvatureTable` linearises (equally spaced over the draws' range).
 CURVATURE_NODES = 9
@@ -85,6 +86,11 @@ class ModelUncertainty:
             realistic spread of 0.1: curvature, absorptivity and power ±10 %, the beam offset ±10 %
             of ``pointing_bias_m``), and none at all without a spread. Kept so that v0 plays as it
             did; a new task leaves it False.
+        v1_widening: In a spot widened beyond ``L0``, add the draw's difference from the nominal sail
+            at ``s = 1``, undiminished, as ``LightSailUncertain-v1`` (and v0) did (lightsail-gym 0.4.0):
+            first order in the draw times the widening, 17 % of the coast's radiation terms at
+            ``s = 1.24``. Kept so that v0 and v1 play as they did; a new task leaves it False and
+            takes the drawn sail's own terms in the widened spot (:class:`WidenedCurvatureTable`).
     """
 
     curvature: float = 0.0
@@ -92,6 +98,7 @@ class ModelUncertainty:
     power: float = 0.0
     pointing_bias_m: float = 0.0
     v0_draws: bool = False
+    v1_widening: bool = False
 
     def __post_init__(self) -> None:
         for name, high in SIZE_LIMITS:
@@ -104,7 +111,8 @@ class ModelUncertainty:
                 bound = f"[0, {high}]" if math.isfinite(high) else f"[0, aperture_radius_m] ({BIAS_LIMIT_REASON})"
                 raise ValueError(f"model_uncertainty.{name} must be a real number in {bound}, got {given!r}")
             object.__setattr__(self, name, value)  # NumPy scalars and ints stored as float
-        object.__setattr__(self, "v0_draws", boolean(self.v0_draws, "model_uncertainty.v0_draws"))
+        for name in ("v0_draws", "v1_widening"):
+            object.__setattr__(self, name, boolean(getattr(self, name), f"model_uncertainty.{name}"))
 
     @property
     def active(self) -> bool:
@@ -200,6 +208,69 @@ def curvature_table(sail: RigidSailConfig, spin: float, curvature: float) -> Cur
     return CurvatureTable(sail, spin, curvature)
 
 
+class WidenedCurvatureTable:
+    """The radiation part of ``A`` (8, 8), ``B`` (8, 4) and the centred push of a dish over its radius of
+    curvature, its absorptivity and the spot's widening ``s ≥ 1`` beyond ``L0``.
+
+    At each of :data:`CURVATURE_NODES` radii (:class:`CurvatureTable`'s) and each point of the widened
+    spot's grid (:func:`~sail_env.physics.rigid3d.scales.scale_grid`, the nominal sail's
+    :class:`~sail_env.physics.rigid3d.scales.ScaleTable`'s) the sail is linearised at ``α = 0`` and
+    ``α = 1``: a cubic spline in ``R`` at every point, exact in ``α``, and along the grid read as the
+    ScaleTable reads its own (``s² X`` linearly in ``ln s``, :func:`~sail_env.physics.rigid3d.scales.
+    blend_weights`), so the nominal sail's entries here and there interpolate alike.
+    """
+
+    def __init__(self, sail: RigidSailConfig, spin: float, curvature: float, top: float) -> None:
+        r0 = sail.curvature_radius_m
+        self.radii = r0 * np.linspace(1 - curvature, 1 + curvature, CURVATURE_NODES) if curvature else np.array([r0])
+        self.top = top
+        self.log_scales, _ = scale_grid(sail, top)
+        weight = np.exp(2.0 * self.log_scales)
+        values = [[self._linearise(sail.replace(curvature_radius_m=float(r), absorptivity=a, reflectivity=1.0 - a),
+                                   spin, weight) for a in (0.0, 1.0)] for r in self.radii]
+        # (nodes, 2 (α = 0, 1), grid, ...) per quantity; each α's part: X₀ and X₁ = X(α = 1) − X₀.
+        stacked = [np.stack([[v[a][q] for a in (0, 1)] for v in values]) for q in range(3)]
+        parts = [np.stack([q[:, 0], q[:, 1] - q[:, 0]], axis=1) for q in stacked]
+        import scipy.interpolate  # here: ~0.4 s to import, which every other task would pay
+
+        self._parts = parts if len(self.radii) == 1 else [scipy.interpolate.CubicSpline(self.radii, part, axis=0)
+                                                          for part in parts]
+
+    def _linearise(self, config: RigidSailConfig, spin: float,
+                   weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``s² A_rad`` (grid, 8, 8), ``s² B`` (grid, 8, 4) and ``s² push`` (grid,) of one sail."""
+        sail = RigidSail(config)
+        lins = [damped_linearisation(sail, spin=spin, beam_scale=float(math.exp(x))) for x in self.log_scales]
+        parts = [cleaned(lin, config.aperture_radius_m) for lin in lins]
+        return (weight[:, None, None] * np.stack([part[0] for part in parts]),
+                weight[:, None, None] * np.stack([part[1] for part in parts]),
+                weight * np.array([lin.push_n for lin in lins]))
+
+    def at(self, radius: np.ndarray, absorptivity: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(A_rad (k, 8, 8), B (k, 8, 4), push (k,))`` of sails with radii, absorptivities and spot
+        scales (k,) (up to ``s = 1``: the unwidened spot's)."""
+        radius, absorptivity = np.asarray(radius, float), np.asarray(absorptivity, float)
+        index, upper, mix, inverse = blend_weights(self.log_scales, self.top, scale)
+        rows = np.arange(len(radius))
+        out = []
+        for part in self._parts:
+            values = np.repeat(part, len(radius), axis=0) if isinstance(part, np.ndarray) else part(radius)
+            trailing = (slice(None),) + (None,) * (values.ndim - 3)
+            alpha = absorptivity[trailing]
+            below = values[rows, 0, index] + alpha * values[rows, 1, index]
+            above = values[rows, 0, upper] + alpha * values[rows, 1, upper]
+            out.append(inverse[trailing] * ((1 - mix[trailing]) * below + mix[trailing] * above))
+        return tuple(out)
+
+
+@built_once
+def widened_curvature_table(sail: RigidSailConfig, spin: float, curvature: float,
+                            top: float) -> WidenedCurvatureTable:
+    """The :class:`WidenedCurvatureTable` of ``sail``, built once per process and shared read-only
+    (:func:`~sail_env.physics.memo.built_once`)."""
+    return WidenedCurvatureTable(sail, spin, curvature, top)
+
+
 class UncertainPlant(RigidPlant):
     """:class:`RigidPlant` with the draws of :class:`ModelUncertainty` on top of the parameter spread.
 
@@ -225,7 +296,10 @@ class UncertainPlant(RigidPlant):
         self._push_range = np.array([min(pushes), max(pushes)]) / self._nominal_terms[2][0]
         half = np.array([u.curvature, u.absorptivity, u.power, 1.0, 1.0])
         self._low, self._high = 1 - half, 1 + half
+        self.widened = None
         super().__init__(config, parameter_spread, push_noise, disturbances)
+        if self.scales is not None and not u.v1_widening:
+            self.widened = widened_curvature_table(sail, config.spin_rad_s, u.curvature, self.scales.top)
         if u.active:
             self._shared = None
 
@@ -268,22 +342,37 @@ class UncertainPlant(RigidPlant):
         return rows, ratio if push is None else ratio * push / self._nominal_terms[2][0]
 
     def draw_radiation(self, factors: np.ndarray, ratio: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The nominal sail's terms (in the spot at ``t``) plus the draw's difference from them at
-        ``s = 1``, with the draw's payload torque and beam offset in the constant column."""
+        """The nominal sail's terms in the spot at ``t`` plus the draw's difference from them in that
+        spot (:class:`WidenedCurvatureTable`; with ``v1_widening``, or where the spot has not widened, the
+        difference at ``s = 1``), with the draw's payload torque and beam offset in the constant column.
+        Each row's numbers are its own, whatever the other rows' spots (a batch plays the single episodes)."""
         base_a, base_b = self._radiation(ratio, t)
         radiation, b, push, inertia = self._sail_terms(factors)
         nominal_a, nominal_b, nominal_push, nominal_inertia = (q[0] for q in self._nominal_terms)
+        delta_a, delta_inputs = radiation - nominal_a, b - nominal_b
+        delta_push = push / inertia - nominal_push / nominal_inertia
+        if self.widened is not None:
+            scale = self.flights.beam_scale(ratio, t) * np.ones(len(factors))
+            far = scale > 1.0
+            if np.any(far):
+                sail, k = self.config.sail, len(factors)
+                drawn = self.widened.at(sail.curvature_radius_m * factors[:, 3], sail.absorptivity * factors[:, 4],
+                                        scale)
+                nominal = self.widened.at(np.full(k, sail.curvature_radius_m), np.full(k, sail.absorptivity), scale)
+                delta_a = np.where(far[:, None, None], drawn[0] - nominal[0], delta_a)
+                delta_inputs = np.where(far[:, None, None], drawn[1] - nominal[1], delta_inputs)
+                delta_push = np.where(far, drawn[2] / inertia - nominal[2] / nominal_inertia, delta_push)
         lin = self.linearisation
-        delta_a = radiation - nominal_a
         delta_b = np.zeros((len(factors),) + self.radiation_b.shape)
-        delta_b[:, :, :4] = b - nominal_b
+        delta_b[:, :, :4] = delta_inputs
         # The payload's constant term (plant3d.payload_term) of the draw's sail, minus the nominal's.
         offset = self.config.payload_offset_m * self.config.sail.craft_mass_kg / lin.mass_kg
         delta_b[:, :, -1] = -offset * delta_a[:, :, X]
-        delta_b[:, OMEGA_Y, -1] += offset * (push / inertia - nominal_push / nominal_inertia)
-        # A constant beam offset acts through the draw's own offset columns of B.
+        delta_b[:, OMEGA_Y, -1] += offset * delta_push
+        # A constant beam offset acts through the draw's own offset columns of B in the spot (v1: the unwidened).
         bias = (factors[:, 6:8] - 1.0) * self.uncertainty.pointing_bias_m
-        delta_b[:, :, -1] += np.einsum("kij,kj->ki", self.radiation_b[None, :, :2] + delta_b[:, :, :2], bias)
+        offsets = (self.radiation_b[None] if self.uncertainty.v1_widening else base_b)[:, :, :2]
+        delta_b[:, :, -1] += np.einsum("kij,kj->ki", offsets + delta_b[:, :, :2], bias)
         return base_a + delta_a, base_b + delta_b
 
 
