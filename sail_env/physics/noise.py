@@ -16,8 +16,9 @@ For a linear system with additive and multiplicative white noise the second mome
 
     dM/dt = Ã M + M Ãᵀ + S_F Ã_F M Ã_Fᵀ + S_d b bᵀ M[-1, -1]
 
-For the planar model (:mod:`sail_env.physics.planar.model`) the correction vanishes (``Ã_F² = 0``: the push scales forces that depend on
-positions only), so the two readings agree there; it matters for a push-scaled force on a velocity.
+For the planar model (:mod:`sail_env.physics.planar.model`) the correction vanishes (``Ã_F² = 0``: the
+push scales forces that depend on positions only), so the two readings agree there; it matters for a
+push-scaled force on a velocity.
 
 so it is propagated exactly by one matrix exponential of the vectorised generator
 (after Van Loan 1978, IEEE TAC 23:395, who treats the additive case). ``M`` is symmetric and
@@ -68,18 +69,21 @@ class WhiteNoise:
 
 def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
                      push: tuple[np.ndarray, np.ndarray], jitter_inputs: tuple[int, ...],
-                     jitter_psd: np.ndarray | None = None,
-                     state_psd: np.ndarray | None = None) -> np.ndarray:
+                     jitter_psd: np.ndarray | None = None, state_psd: np.ndarray | None = None,
+                     xp: Any = np) -> np.ndarray:
     """The ``h × h`` matrix ``G_h`` with ``d vech(M)/dt = G_h vech(M)``, ``h = (n+1)(n+2)/2``
     (:func:`_vech_maps`): :func:`vec_moment_generator` (same arguments) on the symmetric second moments,
     ``G_h = L G D`` with the elimination ``L`` (its rows of ``vech``'s entries) and the duplication
-    ``D`` (an off-diagonal entry stands for itself and its mirror, so their columns add)."""
+    ``D`` (an off-diagonal entry stands for itself and its mirror, so their columns add).
+
+    ``xp`` is the array module: ``jax.numpy`` builds the same generator under ``jit`` and ``vmap``
+    (the JAX backend's coast of a model that changes along the flight), ``jitter_psd`` and
+    ``state_psd`` may then be traced; ``noise`` (floats) and ``jitter_inputs`` are constants."""
     rows, cols, _ = _vech_maps(a.shape[-1] + 1)
-    coefficients = _generator_rows(a, b, action, noise, push, jitter_inputs, jitter_psd, state_psd, rows, cols)
-    folded = coefficients[..., rows, cols]
+    coefficients = _generator_rows(a, b, action, noise, push, jitter_inputs, jitter_psd, state_psd, rows, cols, xp)
     off_diagonal = rows != cols
-    folded[..., off_diagonal] += coefficients[..., cols[off_diagonal], rows[off_diagonal]]
-    return folded
+    return _added(coefficients[..., rows, cols], np.s_[..., off_diagonal],
+                  coefficients[..., cols[off_diagonal], rows[off_diagonal]])
 
 
 def held_input_generator(a: np.ndarray, b: np.ndarray, noise: WhiteNoise, push: tuple[np.ndarray, np.ndarray],
@@ -162,50 +166,69 @@ def vec_moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise
 
 def moment_matrices(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
                     push: tuple[np.ndarray, np.ndarray], jitter_inputs: tuple[int, ...],
-                    jitter_psd: np.ndarray | None = None,
-                    state_psd: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    jitter_psd: np.ndarray | None = None, state_psd: np.ndarray | None = None,
+                    xp: Any = np) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The augmented state's equation ``dz = Ã z dt + Ã_F z dW_F + dW`` (arguments as
-    :func:`vec_moment_generator`): the Itô drift ``Ã`` (with ``½ S_F Ã_F²``) and the push noise's
-    ``Ã_F``, both (*batch, n+1, n+1), and the additive intensity ``E[dW dWᵀ]/dt`` ((…, n+1, n+1), batched
-    like ``b`` and ``jitter_psd``; zero in the constant's row and column)."""
+    :func:`vec_moment_generator`, ``xp`` as :func:`moment_generator`'s): the Itô drift ``Ã`` (with
+    ``½ S_F Ã_F²``) and the push noise's ``Ã_F``, both (*batch, n+1, n+1), and the additive intensity
+    ``E[dW dWᵀ]/dt`` ((…, n+1, n+1), batched like ``b`` and ``jitter_psd``; zero in the constant's row
+    and column)."""
     a_push, b_push = push
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
     n = a.shape[-1]
-    drift = np.zeros((*batch, n + 1, n + 1))
-    drift[..., :n, :n] = a
-    drift[..., :n, n] = np.einsum("...ij,...j->...i", b, action)
-    mult = np.zeros((*batch, n + 1, n + 1))
-    mult[..., :n, :n] = a_push
-    mult[..., :n, n] = np.einsum("...ij,...j->...i", b_push, action)
+    drift = _placed(xp.zeros((*batch, n + 1, n + 1)), np.s_[..., :n, :n], a)
+    drift = _placed(drift, np.s_[..., :n, n], xp.einsum("...ij,...j->...i", b, action))
+    mult = _placed(xp.zeros((*batch, n + 1, n + 1)), np.s_[..., :n, :n], a_push)
+    mult = _placed(mult, np.s_[..., :n, n], xp.einsum("...ij,...j->...i", b_push, action))
     drift = drift + 0.5 * noise.push_psd_s * mult @ mult
-    psd = noise.beam_jitter_psd_m2s if jitter_psd is None else np.asarray(jitter_psd)[..., None, None]
-    jitter_b = np.zeros((*b.shape[:-2], n + 1, b.shape[-1]))  # the constant row feels no jitter
-    jitter_b[..., :n, :] = b
+    psd = noise.beam_jitter_psd_m2s if jitter_psd is None else xp.asarray(jitter_psd)[..., None, None]
+    jitter_b = xp.zeros((*b.shape[:-2], n + 1, b.shape[-1]))  # the constant row feels no jitter
+    jitter_b = _placed(jitter_b, np.s_[..., :n, :], b)
     additive = sum(psd * jitter_b[..., :, None, column] * jitter_b[..., None, :, column] for column in jitter_inputs)
     if state_psd is not None:
-        padded = np.zeros((*np.shape(state_psd)[:-2], n + 1, n + 1))
-        padded[..., :n, :n] = state_psd
-        additive = additive + padded
-    return drift, mult, np.broadcast_to(additive, (*np.shape(additive)[:-2], n + 1, n + 1))
+        additive = additive + _placed(xp.zeros((*np.shape(state_psd)[:-2], n + 1, n + 1)), np.s_[..., :n, :n],
+                                      state_psd)
+    return drift, mult, xp.broadcast_to(additive, (*np.shape(additive)[:-2], n + 1, n + 1))
 
 
 def _generator_rows(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: WhiteNoise,
                     push: tuple[np.ndarray, np.ndarray], jitter_inputs: tuple[int, ...],
                     jitter_psd: np.ndarray | None, state_psd: np.ndarray | None, rows: np.ndarray,
-                    cols: np.ndarray) -> np.ndarray:
+                    cols: np.ndarray, xp: Any = np) -> np.ndarray:
     """``dM_ij/dt`` for the entries ``(rows, cols)`` (r,) as coefficients of ``M`` (..., r, n+1, n+1):
     ``Σ_k Ã_ik M_kj + Σ_l Ã_jl M_il + S_F Σ_kl Ã_F,ik Ã_F,jl M_kl + (S_d b bᵀ + S_state)_ij M_nn`` (the rows
-    of the vec generator; arguments as :func:`vec_moment_generator`)."""
-    drift, mult, additive = moment_matrices(a, b, action, noise, push, jitter_inputs, jitter_psd, state_psd)
+    of the vec generator; arguments as :func:`vec_moment_generator`, ``xp`` as :func:`moment_generator`'s)."""
+    drift, mult, additive = moment_matrices(a, b, action, noise, push, jitter_inputs, jitter_psd, state_psd, xp)
     batch, n = drift.shape[:-2], a.shape[-1]
     drift, mult = drift.reshape(-1, n + 1, n + 1), mult.reshape(-1, n + 1, n + 1)
-    out = np.empty((len(drift), len(rows), n + 1, n + 1))  # C order: the entries of a row together
-    np.multiply(noise.push_psd_s * mult[:, rows, :, None], mult[:, cols, None, :], out=out)
+    # C order, the entries of a row together: ``take``, as fancy indexing would lay NumPy's product out
+    # rows first, and a generator of another layout need not meet the same BLAS kernels downstream.
+    out = noise.push_psd_s * xp.take(mult, rows, axis=1)[..., None] * xp.take(mult, cols, axis=1)[:, :, None, :]
     entry = np.arange(len(rows))
-    out[:, entry, :, cols] += np.swapaxes(drift[:, rows, :], 0, 1)  # Ã M: M_kj for row (i, j)
-    out[:, entry, rows, :] += drift[:, cols, :]  # M Ãᵀ: M_il
-    out[:, :, n, n] += np.broadcast_to(additive[..., rows, cols], (*batch, len(rows))).reshape(-1, len(rows))
+    out = _added(out, np.s_[:, entry, :, cols], xp.swapaxes(drift[:, rows, :], 0, 1))  # Ã M: M_kj for row (i, j)
+    out = _added(out, np.s_[:, entry, rows, :], drift[:, cols, :])  # M Ãᵀ: M_il
+    out = _added(out, np.s_[:, :, n, n],
+                 xp.broadcast_to(additive[..., rows, cols], (*batch, len(rows))).reshape(-1, len(rows)))
     return out.reshape(*batch, len(rows), n + 1, n + 1)
+
+
+def _placed(array: np.ndarray, index: Any, values: np.ndarray) -> np.ndarray:
+    """``array`` with ``values`` written at ``index``: in place for a NumPy array, a new array for a
+    JAX one (immutable: ``.at[].set``). One code path for both array modules, and NumPy's as cheap as
+    a plain assignment (a copy per update makes the generators of 118 3D models a quarter slower)."""
+    if isinstance(array, np.ndarray):
+        array[index] = values
+        return array
+    return array.at[index].set(values)
+
+
+def _added(array: np.ndarray, index: Any, values: np.ndarray) -> np.ndarray:
+    """``array`` with ``values`` added at ``index``, as :func:`_placed` writes; the entries must be
+    distinct (NumPy's ``+=`` adds a repeated entry's values once, JAX's ``.add`` every one)."""
+    if isinstance(array, np.ndarray):
+        array[index] += values
+        return array
+    return array.at[index].add(values)
 
 
 def moment_propagator(generator: np.ndarray, duration: np.ndarray, units: np.ndarray) -> np.ndarray:
