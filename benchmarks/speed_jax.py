@@ -35,6 +35,10 @@ from agents import cli
 from sail_env.provenance import machine
 
 SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0", "LightSailRealistic-v0", "LightSail3D-v0")
+#: The realistic 3D task, whose coast follows the flight (~50 ms of CPU an episode on either backend): on
+#: a CPU only against the Numba vector env at N = 1,024 (``--along``), without the ``vmap(step)`` column,
+#: which would coast every environment at every step.
+ALONG_SUBJECTS = ("LightSail3DRealistic-v1",)
 #: Environments of the comparison with the Numba vector env.
 NUMBA_ENVS = 1024
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
@@ -116,6 +120,56 @@ def cold_start_s() -> float:
     return float(done.stdout.strip().splitlines()[-1])
 
 
+def along_rates(sizes: list[int], steps: int, rounds: int, rows: list[dict]) -> None:
+    """:data:`ALONG_SUBJECTS`' env-steps/s through ``step_batch`` at each N (best of ``rounds``; each call
+    a whole window, so every episode's coast is in it), printed and added to ``rows``."""
+    for task in ALONG_SUBJECTS:
+        env, params = sail_env.jax.make(task)
+        for envs in sizes:
+            subject = rollout(env, params, envs, steps, continuous=True)
+            compile_s = timed(subject, jax.random.key(0))
+            best = min(timed(subject, jax.random.key(r + 1)) for r in range(rounds))
+            rows.append({"task": task, "envs": envs, "rate": envs * steps / best, "compile_s": compile_s})
+            print(f"| {task} | {envs:,} | {envs * steps / best:.3g} env-steps/s | compile {compile_s:.1f} s |",
+                  flush=True)
+
+
+def numba_table(tasks: tuple[str, ...], steps: int, rounds: int, rows: list[dict]) -> list[str]:
+    """The JAX backend against the Numba vector env at N = :data:`NUMBA_ENVS` (one process, interleaved,
+    best of ``rounds``), and against its own ``vmap(env.step)`` except for :data:`ALONG_SUBJECTS`: the
+    table's lines (printed as they come), each row added to ``rows``."""
+    lines = ["", f"Against the project's Numba vector env at N = {NUMBA_ENVS:,} (one process, the same interleaving):",
+             "",
+             "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba | JAX through `vmap(step)` "
+             "| `step_batch` ÷ it |",
+             "|---|---:|---:|---:|---:|---:|"]
+    print("\n".join(lines), flush=True)
+    for task in tasks:
+        env, params = sail_env.jax.make(task)
+        subject = rollout(env, params, NUMBA_ENVS, steps, continuous=True)
+        timed(subject, jax.random.key(0))
+        vmapped = None
+        if task not in ALONG_SUBJECTS:
+            vmapped = rollout(env, params, NUMBA_ENVS, steps, continuous=True, batched=False)
+            timed(vmapped, jax.random.key(0))
+        numba = numba_rollout(task, NUMBA_ENVS, steps)
+        numba_timed(numba, 0)  # compiles the kernels, fills the cache
+        best_numba = best_subject = best_vmapped = float("inf")
+        for r in range(rounds):
+            best_numba = min(best_numba, numba_timed(numba, r + 1))
+            best_subject = min(best_subject, timed(subject, jax.random.key(r + 1)))
+            if vmapped is not None:
+                best_vmapped = min(best_vmapped, timed(vmapped, jax.random.key(r + 1)))
+        rate, numba_rate, vmapped_rate = (NUMBA_ENVS * steps / best
+                                          for best in (best_subject, best_numba, best_vmapped))
+        rows.append({"task": task, "envs": NUMBA_ENVS, "rate": rate, "numba_rate": numba_rate,
+                     "vmapped_rate": vmapped_rate if vmapped is not None else None})
+        versus = f"{vmapped_rate:.3g} | {rate / vmapped_rate:.1f}×" if vmapped is not None else "– | –"
+        lines.append(f"| {task} | {rate:.3g} | {numba_rate:.3g} | {rate / numba_rate:.2f}× | {versus} |")
+        print(lines[-1], flush=True)
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=SIZES)
@@ -124,6 +178,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="N = 10^3 and 10^4, 2 rounds")
     parser.add_argument("--out", type=Path, help="write every round as JSON here")
     parser.add_argument("--readme", type=Path, help="put the tables between this markdown file's markers")
+    parser.add_argument("--along", action="store_true",
+                        help=f"only {', '.join(ALONG_SUBJECTS)} against the Numba vector env at N = {NUMBA_ENVS:,}")
+    parser.add_argument("--along-sizes", type=int, nargs="+",
+                        help=f"only {', '.join(ALONG_SUBJECTS)}'s own rate at these N (an accelerator's figure)")
     args = parser.parse_args(argv)
     if args.readme:
         try:
@@ -132,6 +190,16 @@ def main(argv: list[str] | None = None) -> int:
             return cli.fail(err)
     if args.quick:
         args.sizes, args.rounds = [1_000, 10_000], 2
+    if args.along or args.along_sizes:
+        rows = []
+        if args.along_sizes:
+            along_rates(args.along_sizes, args.steps, args.rounds, rows)
+        else:
+            numba_table(ALONG_SUBJECTS, args.steps, args.rounds, rows)
+        if args.out:
+            cli.write_whole(args.out, json.dumps({"device": str(jax.devices()[0].device_kind), "machine": machine(),
+                                                  "jax": jax.__version__, "steps": args.steps, "rows": rows}, indent=1))
+        return 0
     import gymnax
 
     peer_env, peer_params = gymnax.make("CartPole-v1")
@@ -159,32 +227,7 @@ def main(argv: list[str] | None = None) -> int:
                          "compile_s": compile_s, "peer_compile_s": peer_compile})
             lines.append(f"| {task} | {envs:,} | {rate:.3g} | {peer_rate:.3g} | {rate / peer_rate:.2f}× | {compile_s:.1f} |")
             print(lines[-1], flush=True)
-    lines += ["", f"Against the project's Numba vector env at N = {NUMBA_ENVS:,} (one process, the same interleaving):",
-              "",
-              "| task | JAX env-steps/s | Numba env-steps/s | JAX ÷ Numba | JAX through `vmap(step)` "
-              "| `step_batch` ÷ it |",
-              "|---|---:|---:|---:|---:|---:|"]
-    print("\n".join(lines[-4:]), flush=True)
-    for task in SUBJECTS:
-        env, params = sail_env.jax.make(task)
-        subject = rollout(env, params, NUMBA_ENVS, args.steps, continuous=True)
-        timed(subject, jax.random.key(0))
-        vmapped = rollout(env, params, NUMBA_ENVS, args.steps, continuous=True, batched=False)
-        timed(vmapped, jax.random.key(0))
-        numba = numba_rollout(task, NUMBA_ENVS, args.steps)
-        numba_timed(numba, 0)  # compiles the kernels, fills the cache
-        best_numba = best_subject = best_vmapped = float("inf")
-        for r in range(args.rounds):
-            best_numba = min(best_numba, numba_timed(numba, r + 1))
-            best_subject = min(best_subject, timed(subject, jax.random.key(r + 1)))
-            best_vmapped = min(best_vmapped, timed(vmapped, jax.random.key(r + 1)))
-        rate, numba_rate, vmapped_rate = (NUMBA_ENVS * args.steps / best
-                                          for best in (best_subject, best_numba, best_vmapped))
-        rows.append({"task": task, "envs": NUMBA_ENVS, "rate": rate, "numba_rate": numba_rate,
-                     "vmapped_rate": vmapped_rate})
-        lines.append(f"| {task} | {rate:.3g} | {numba_rate:.3g} | {rate / numba_rate:.2f}× | {vmapped_rate:.3g} "
-                     f"| {rate / vmapped_rate:.1f}× |")
-        print(lines[-1], flush=True)
+    lines += numba_table(SUBJECTS, args.steps, args.rounds, rows)
     cold = cold_start_s()
     lines += ["", f"A new process's import, make, compile and first step of `LightSail-v0`: {cold:.1f} s."]
     print(lines[-1])

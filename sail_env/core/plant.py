@@ -31,6 +31,8 @@ parameter draws. SI units throughout.
 | ``speed(p, t)``, ``pointing(p, x, t)`` | the axial speed and the flight direction ``|V⊥|/Vz`` if the beam is cut at ``t`` |
 | ``noisy``, ``jittered``, ``jitter_inputs``, ``jitter_std(p, t)`` | whether noise acts over the coast; the inputs a beam offset moves and the size of the active beam disturbances together (``sail_env.physics.disturbance``'s beam channel) |
 | ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (the impulse channel, e.g. dust): the rows they kick, their rate and size |
+| ``flight_model(p)`` | what a coast along the flight reads of draws ``p`` (the 3D plant's tables and per-draw arrays; None for a model that does not change along it): the JAX backend's coast |
+| ``jitter_std_along(distance, xp)``, ``impacts_along(speed, xp)`` | the beam offsets' size and the impacts' rate and size as laws of the sail's distance and speed, in an array module (what the JAX backend reads along a flight) |
 | ``coast_pieces(p, duration)``, ``coast(p, x, u, duration, normals, start_s)`` | the propagation to cut-off with the noise's exact moments, and how many normals it draws |
 | ``time_varying``, ``piece_propagators(p, u, start_s, duration)``, ``held_input_generator(p, t)`` | whether the coast's model changes along the flight; one coast piece's propagator, and the moment generator of every held input at once (what the JAX backend is handed to coast as the compiled core does) |
 """
@@ -126,6 +128,12 @@ class Plant(Protocol):
     def jitter_std(self, p: PlantParams, t: np.ndarray) -> np.ndarray | float: ...
 
     def impact_rate_and_std(self, p: PlantParams, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def jitter_std_along(self, distance: object, xp: object = np) -> object: ...
+
+    def flight_model(self, p: PlantParams) -> object | None: ...
+
+    def impacts_along(self, speed: object, xp: object = np) -> tuple[object, object]: ...
 
     def coast_pieces(self, p: PlantParams, duration: np.ndarray) -> np.ndarray: ...
 

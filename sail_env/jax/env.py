@@ -4,13 +4,13 @@ The task's matrices and tables come from the same NumPy/SciPy code the Numba cor
 :class:`~sail_env.core.spec.EpisodeSpec` built from the same keywords), handed over once as the
 arrays of :class:`EnvParams`; this module holds only the episode logic of
 :mod:`sail_env.core.kernels` and :mod:`sail_env.core.episode`: the clip and scale of the action, the
-command ring and the light delay, the beam jitter and the push noise of each step, the divergence
-rule, the envelope, the reward, the termination, the (delayed, noisy) observation, the commands still
-in flight after the window, and the coast and scoring at cut-off. Every function works on one
-environment; ``jax.vmap`` batches them (over states, and over params for per-environment tasks).
-The logic is the linear plant's, whatever the sail model: the planar tasks and ``LightSail3D-v0``
-today (:data:`~sail_env.tasks.JAX_TASKS`); :func:`bank_of` refuses, by name, what it does not carry yet
-(a coast whose model changes along the flight, random impacts, a constant drive, power control).
+command ring and the light delay, the beam jitter, the push noise and the random impacts of each step,
+the constant drive (a payload off the axis), the divergence rule, the envelope, the reward, the
+termination, the (delayed, noisy) observation, the commands still in flight after the window, and the
+coast and scoring at cut-off. Every function works on one environment; ``jax.vmap`` batches them (over
+states, and over params for per-environment tasks). The logic is the linear plant's, whatever the sail
+model: the planar tasks, ``LightSail3D-v0`` and the realistic 3D tasks (:data:`~sail_env.tasks.JAX_TASKS`);
+:func:`bank_of` refuses, by name, what it does not carry yet (the uncertain tasks' draws, power control).
 
 **Randomness.** The public ``reset``/``step`` draw from their keys: at reset the parameter draw,
 the cut-off time, the launch state and the pre-control noise (:class:`EpisodeStart`); at each step
@@ -31,6 +31,14 @@ the beam jitter with the last command held, then a Gaussian draw by the symmetri
 correlation. The moment generator depends on the held command; the bank holds, per draw, the
 generator of every held input at once (:func:`~sail_env.physics.noise.held_input_generator`), reduced
 to the episode's input at its end.
+
+**Along the flight** (the realistic 3D tasks: the relativistic push, the spot widening beyond ``L0``, the
+ground jitter growing with the distance, the dust with the speed) the model changes over the coast, and
+both the pre-control flight and the coast to cut-off go piece by piece as the plant's do
+(:mod:`sail_env.jax.along`: each piece's model, generator and exponential built in JAX from the plant's
+tables). The window's steps are the Numba core's operation for operation, but each backend's coast is its
+own exponential of each piece, so these episodes agree to ~1e-7, not to the bit
+(``tests/jax/test_same_draws.py``).
 """
 
 from __future__ import annotations
@@ -47,6 +55,7 @@ from gymnax.environments import environment, spaces
 from sail_env.core.episode import OBSERVATION_LIMIT
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, succeeded
 from sail_env.core.spec import EpisodeSpec
+from sail_env.jax.along import AlongFlight, Coast, along_of
 from sail_env.jax.arith import divide, log_ratio, ordered_dot
 from sail_env.physics.linear import sample_gaussian
 from sail_env.physics.noise import balancing, held_input_maps, mean_and_covariance, second_moment
@@ -81,6 +90,7 @@ class EnvState(environment.EnvState):
     pointing: jax.Array  # the flight direction at cut-off [rad]: NaN before the end, inf after a divergence
     draw: jax.Array  # the episode's parameter draw: its row of the params' bank (0 without spread)
     cutoff: jax.Array  # the episode's beam cut-off time [s]
+    speed: jax.Array  # the axial speed at that cut-off [m/s]: what the envelope and the pointing divide by
     commands: jax.Array  # (C, m) ring of the sent commands, step s's at s % C (C = 1 without light delay)
     states: jax.Array  # (S, n) ring of true states, step s's at (s + lag0) % S (the delayed observation's source)
     sensor: jax.Array  # (n,) the standard normals of the current observation's sensor noise
@@ -94,8 +104,9 @@ class EpisodeStart:
     launch: jax.Array  # (n,) the launch state
     draw: jax.Array  # row of the params' bank
     cutoff: jax.Array  # the beam cut-off time [s]
-    pre_coast: jax.Array  # (n,) normals of the coast from launch to the first pre-control step
-    pre_steps: jax.Array  # (D, J + 1) normals of the pre-control steps: beam jitter (J), push
+    pre_coast: jax.Array  # (Q, n) normals of the coast's pieces from launch to the first pre-control step
+    pre_steps: jax.Array  # (D, J + 1 + r) normals of the pre-control steps: beam jitter (J), push, impacts (r)
+    pre_counts: jax.Array  # (D,) the pre-control steps' impact counts
     sensor: jax.Array  # (n,) normals of the first observation's sensor noise
 
 
@@ -105,9 +116,12 @@ class StepNoise:
 
     jitter: jax.Array  # (J,) the beam offsets' of this step
     push: jax.Array  # the push's of this step
+    impacts: jax.Array  # (r,) the impacts' kicks of this step, one per kicked row
+    count: jax.Array  # this step's number of impacts
     sensor: jax.Array  # (n,) the next observation's sensor noise
-    in_flight: jax.Array  # (D + 2, J + 1) the steps after the window while commands are in flight
-    coast: jax.Array  # (n,) the coast's draw
+    in_flight: jax.Array  # (D + 2, J + 1 + r) the steps after the window while commands are in flight
+    in_flight_counts: jax.Array  # (D + 2,) their impact counts
+    coast: jax.Array  # (P, n) the coast's draws, one per piece
 
 
 @struct.dataclass
@@ -123,6 +137,9 @@ class EnvParams:
     limits: jax.Array  # (K, G): the divergence groups' limits
     acceleration: jax.Array  # (K,): axial acceleration [m/s²]
     speed_at_cutoff: jax.Array  # (K,): the axial speed at the nominal cut-off [m/s] (the plant's flight law)
+    jitter_std: jax.Array  # (K, W): the beam offset's standard deviation [m] in each noise step (step + lag0)
+    impact_rate: jax.Array  # (K,): the impacts' rate [1/s] in the window
+    impact_std: jax.Array  # (K, r): one impact's kick on each kicked row (SI rates)
     delay: jax.Array  # (K, T): one-way light delay [steps] at each control step (zeros without delay)
     launch_phi: jax.Array  # (K, n, n) noise-free tasks: launch to the start of control; noisy: (K, 0, 0)
     pre_propagator: jax.Array  # (K, h, h) noisy tasks: the pre-control coast's second-moment propagator
@@ -134,7 +151,6 @@ class EnvParams:
     state_scale: jax.Array  # (n,): divides the state in the observation
     start_half_widths: jax.Array  # (n,): the uniform launch box
     sensor_std: jax.Array  # (n,): the sensor noise's standard deviation
-    jitter_std: jax.Array  # the beam offset's standard deviation per step [m]
     push_noise: jax.Array  # the push's relative standard deviation per step
     into_units: jax.Array  # (h, h) and back: the moment propagator's exact change of units
     from_units: jax.Array
@@ -142,10 +158,15 @@ class EnvParams:
     dt: jax.Array
     beam_cutoff_s: jax.Array
     cutoff_jitter_s: jax.Array
+    #: A model that changes along the flight (:mod:`sail_env.jax.along`): its tables and per-draw arrays.
+    along: AlongFlight | None = None
     max_steps_in_episode: int = struct.field(pytree_node=False, default=200)
     #: Pieces of a noise-free coast to cut-off (divergence is checked after each): static, so that the
     #: coast unrolls (one matrix product for a stable sail) instead of a loop of data-dependent length.
+    #: Along the flight: the most pieces any coast to cut-off takes (the draws' normals per episode).
     coast_pieces: int = struct.field(pytree_node=False, default=1)
+    #: The most pieces of the coast from launch to the first pre-control step.
+    pre_pieces: int = struct.field(pytree_node=False, default=1)
 
 
 def params_of(spec: EpisodeSpec, dtype: jnp.dtype = jnp.float64, draws: int = DRAWS) -> EnvParams:
@@ -165,35 +186,39 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
     """:func:`params_of` with the bank of the given parameter factors (K, n_factors): the Numba core's
     draws, in the cross-backend tests."""
     plant, dist = spec.plant, spec.randomisation
-    unsupported = [name for name, on in (("a coast whose model changes along the flight (relativity, diffraction, "
-                                          "dust)", plant.time_varying),
-                                         ("random impacts", plant.impulse_rows),
-                                         ("a constant drive", np.any(plant.constant_term)),
-                                         ("power control", "beam_power" in plant.input_names),
+    along_flight = plant.time_varying and plant.flight_model(plant.params(factors[:1])) is not None
+    unsupported = [name for name, on in (("power control", "beam_power" in plant.input_names),
+                                         ("a coast along the flight without noise",
+                                          plant.time_varying and not plant.noisy),
+                                         ("a coast along the flight the plant does not hand over (its flight_model: "
+                                          "the uncertain tasks' draws)", plant.time_varying and not along_flight),
                                          ("light delay without noise", spec.light_delay and not plant.noisy),
                                          ("cutoff_jitter_s without noise", dist.cutoff_jitter_s and not plant.noisy),
                                          ("parameter_spread without noise", dist.parameter_spread and not plant.noisy))
                    if on]
     if unsupported:
-        raise ValueError(f"the JAX backend does not carry {', '.join(unsupported)} yet: it has the planar tasks "
-                         f"and LightSail3D-v0")
+        raise ValueError(f"the JAX backend does not carry {', '.join(unsupported)} yet: it has the tasks of "
+                         f"sail_env.tasks.JAX_TASKS")
     p = plant.params(factors)  # shared (one row) without spread
     k, n, m = len(p.acceleration), plant.n_states, plant.n_inputs
     config = spec.config
     cutoff, window_end = config.beam_cutoff_s, config.control_start_s + spec.n_steps * spec.dt
-    if dist.cutoff_jitter_s:  # the episode's speed at its cut-off is then a t: the flight must be Newtonian
-        for time in (cutoff - dist.cutoff_jitter_s, cutoff + dist.cutoff_jitter_s):
-            if not np.array_equal(plant.speed(p, np.full(k, time)), p.acceleration * time):
-                raise ValueError("the JAX backend does not carry cutoff_jitter_s on a flight that is not Newtonian yet")
     _, _, delay_length = spec.ring_lengths
     delay = spec.delay_steps(np.arange(max(delay_length, 1)), p.acceleration[:, None]) * np.ones((k, 1), np.int64)
+    lag0 = delay[:, 0]
+    pre_control = config.control_start_s - lag0 * spec.dt
+    longest = np.full(k, cutoff + dist.cutoff_jitter_s - window_end)  # the latest cut-off, no command in flight
     h = (n + 1) * (n + 2) // 2
     empty = np.zeros((k, 0, 0))
-    if plant.noisy:
-        # The longest coast (latest cut-off, no command in flight) must be one piece, as the JAX coast is.
-        longest = np.full(k, cutoff + dist.cutoff_jitter_s - window_end)
-        lag0 = delay[:, 0]
-        pre_control = config.control_start_s - lag0 * spec.dt
+    along, pre_pieces = None, 1
+    launch_phi = coast_phi = coast_gamma = empty
+    pre_propagator, coast_generator = np.zeros((k, h, h)), np.zeros((k, h, 0))
+    if plant.time_varying:  # piece by piece along the flight (sail_env.jax.along)
+        along = along_of(plant.flight_model(p), dtype)
+        pieces = int(plant.coast_pieces(p, longest).max())
+        pre_pieces = int(plant.coast_pieces(p, pre_control).max())
+    elif plant.noisy:
+        # The longest coast must be one piece, as the JAX coast of a fixed model is.
         if np.any(plant.coast_pieces(p, longest) > 1) or np.any(plant.coast_pieces(p, pre_control) > 1):
             raise ValueError("the JAX backend coasts a noisy sail in one piece; this task's sail grows too fast "
                              "over its coast (an unstable or parametrically excited sail)")
@@ -203,7 +228,6 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
         generator = plant.held_input_generator(p, np.full(k, 0.5 * (window_end + cutoff)))
         coast_generator = pick @ generator
         _check_squarings(plant, spec, p, generator, longest)
-        launch_phi = coast_phi = coast_gamma = empty
         pieces = 1
     else:
         remaining = max(cutoff - window_end, 0.0)
@@ -211,9 +235,20 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
         coast_phi, coast_gamma = (matrix[None] for matrix in plant.nominal.discretize(remaining / pieces))
         pre = config.control_start_s
         launch_phi = (plant.nominal.discretize(pre)[0] if pre > 0 else np.eye(n))[None]
-        pre_propagator, coast_generator = np.zeros((k, h, h)), np.zeros((k, h, 0))
+    if dist.cutoff_jitter_s and along is None:  # the episode's speed at its cut-off is then a t: Newton's
+        for time in (cutoff - dist.cutoff_jitter_s, cutoff + dist.cutoff_jitter_s):
+            if not np.array_equal(plant.speed(p, np.full(k, time)), p.acceleration * time):
+                raise ValueError("the JAX backend does not carry cutoff_jitter_s on a flight that is not Newtonian "
+                                 "without the flight's table")
     into, back = balancing(plant.start_limits())
-    jitter = plant.jitter_std(p, np.array([spec.window_middle_s]))
+    # Each noise step's beam jitter (column c acts from control_start + (c − lag0) dt), as the core's reset.
+    columns = np.arange(spec.n_steps + 2 * spec.max_delay + 2)
+    middles = config.control_start_s + (columns - lag0[:, None] + 0.5) * spec.dt
+    std = plant.jitter_std(p, middles)
+    jitter = (np.reshape(std, (k, -1)) if np.ndim(std) else std) * np.ones((k, len(columns)))
+    impact_rate, impact_std = np.zeros(k), np.zeros((k, 0))
+    if plant.impulse_rows:
+        impact_rate, impact_std = plant.impact_rate_and_std(p, np.full(k, spec.window_middle_s))
 
     def array(values: Any) -> jax.Array:
         return jnp.asarray(values, dtype=dtype)
@@ -221,14 +256,15 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
     return EnvParams(
         step_matrix=array(p.step), envelope=array(np.swapaxes(p.envelope, 1, 2)), limits=array(p.limits),
         acceleration=array(p.acceleration), speed_at_cutoff=array(plant.speed(p, np.full(k, cutoff))),
+        jitter_std=array(jitter), impact_rate=array(impact_rate), impact_std=array(impact_std),
         delay=jnp.asarray(delay, jnp.int32), launch_phi=array(launch_phi),
         pre_propagator=array(pre_propagator), coast_phi=array(coast_phi), coast_gamma=array(coast_gamma),
         coast_generator=array(coast_generator), action_scale=array(spec.action_scale),
         state_scale=array(spec.state_scale), start_half_widths=array(spec.start_half_widths),
-        sensor_std=array(spec.sensor_noise_std), jitter_std=array(np.ravel(jitter)[0] if np.ndim(jitter) else jitter),
-        push_noise=array(dist.push_noise), into_units=array(into), from_units=array(back),
-        control_start_s=array(config.control_start_s), dt=array(spec.dt), beam_cutoff_s=array(cutoff),
-        cutoff_jitter_s=array(dist.cutoff_jitter_s), max_steps_in_episode=spec.n_steps, coast_pieces=pieces)
+        sensor_std=array(spec.sensor_noise_std), push_noise=array(dist.push_noise), into_units=array(into),
+        from_units=array(back), control_start_s=array(config.control_start_s), dt=array(spec.dt),
+        beam_cutoff_s=array(cutoff), cutoff_jitter_s=array(dist.cutoff_jitter_s), along=along,
+        max_steps_in_episode=spec.n_steps, coast_pieces=pieces, pre_pieces=pre_pieces)
 
 
 def arrived_command(step: jax.Array, delay: jax.Array, newest: jax.Array | int) -> jax.Array:
@@ -252,7 +288,9 @@ def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
 
     def one(carry: tuple[jax.Array, Any]) -> tuple[jax.Array, Any]:
         start, out = carry
-        taken = jax.lax.dynamic_slice(rows, (start,), (chunk,))
+        # Tied to the loop's counter: with one chunk (N <= CHUNK) the slice is the whole array, and XLA
+        # would hoist the work out of the loop and do it on every step (measured: a 3D coast per step).
+        taken, _ = jax.lax.optimization_barrier((jax.lax.dynamic_slice(rows, (start,), (chunk,)), start))
         done = batched(*jax.tree.map(lambda leaf: leaf[taken], inputs))
         return start + chunk, jax.tree.map(lambda whole, part: whole.at[taken].set(part), out, done)
 
@@ -285,7 +323,8 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
     The episode is the Numba core's (:mod:`sail_env.core.kernels`, :mod:`sail_env.core.episode`):
     fed the same draws, both give the same episodes (``tests/jax/test_same_draws.py``: observations
     to the bit on a CPU under the XLA flag of :mod:`sail_env.jax.arith`, rewards within 1e-12,
-    terminal pointing within 1e-9, after a noisy coast within 1e-8 or 1e-16 rad). At an episode's end ``info`` carries the
+    terminal pointing within 1e-9, after a noisy coast within 1e-8 or 1e-16 rad; along the flight,
+    everything within 1e-6, measured 2e-7). At an episode's end ``info`` carries the
     Gym envs' scores: ``is_success``, ``terminal_pointing_rad`` (NaN before the end, inf after a
     divergence) and ``diverged``.
     """
@@ -308,7 +347,13 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         self.randomised = bool(self.noisy or self.sensed or dist.parameter_spread or dist.cutoff_jitter_s)
         self.max_delay, self.history = spec.max_delay, spec.history_length
         self.command_ring, self.state_ring, _ = spec.ring_lengths
-        self._params = params_of(spec, dtype, draws)
+        # The step's and the envelope's constant term (its input 1): a last column of B.
+        self.biased = plant.with_bias(np.zeros((1, self.n_inputs))).shape[1] > self.n_inputs
+        self.impulse_rows = tuple(plant.impulse_rows)
+        self._params = params_of(spec, dtype, draws)  # first: it refuses, by name, what the backend lacks
+        #: The coast of a model that changes along the flight (None: one fixed model).
+        self.along = Coast(plant, plant.flight_model(plant.params(np.ones((1, plant.n_factors))))) if (
+            plant.time_varying) else None
 
     @property
     def name(self) -> str:
@@ -335,44 +380,71 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         row of the bank), the cut-off within its jitter and the pre-control noise. A task without them
         spends ``key`` on the launch alone."""
         half, dtype = params.start_half_widths, params.start_half_widths.dtype
-        n, pre_shape = self.n_states, (self.max_delay, len(self.jitter_inputs) + 1)
-        keys = jax.random.split(key, 6) if self.randomised else [key]
+        n, impacts = self.n_states, len(self.impulse_rows)
+        pre_shape = (self.max_delay, len(self.jitter_inputs) + 1 + impacts)
+        keys = jax.random.split(key, 7 if self.impulse_rows else 6) if self.randomised else [key]
         if launch is None:
             launch = -half + (half - -half) * jax.random.uniform(keys[0], half.shape, dtype=dtype)
         if not self.randomised:
             zeros = jnp.zeros(n, dtype)
             return EpisodeStart(launch=launch, draw=jnp.zeros((), jnp.int32), cutoff=params.beam_cutoff_s,
-                                pre_coast=zeros, pre_steps=jnp.zeros(pre_shape, dtype), sensor=zeros)
+                                pre_coast=jnp.zeros((params.pre_pieces, n), dtype),
+                                pre_steps=jnp.zeros(pre_shape, dtype), pre_counts=jnp.zeros(self.max_delay, dtype),
+                                sensor=zeros)
         jitter = params.cutoff_jitter_s
         u_cut = jax.random.uniform(keys[2], (), dtype=dtype)
+        draw = jax.random.randint(keys[1], (), 0, params.acceleration.shape[0])
         return EpisodeStart(
-            launch=launch, draw=jax.random.randint(keys[1], (), 0, params.acceleration.shape[0]),
-            cutoff=params.beam_cutoff_s + (-jitter + (jitter - -jitter) * u_cut),
-            pre_coast=jax.random.normal(keys[3], (n,), dtype), pre_steps=jax.random.normal(keys[4], pre_shape, dtype),
+            launch=launch, draw=draw, cutoff=params.beam_cutoff_s + (-jitter + (jitter - -jitter) * u_cut),
+            pre_coast=jax.random.normal(keys[3], (params.pre_pieces, n), dtype),
+            pre_steps=jax.random.normal(keys[4], pre_shape, dtype),
+            pre_counts=self._impact_counts(keys[6], params, draw, (self.max_delay,)),
             sensor=jax.random.normal(keys[5], (n,), dtype))
 
-    def draw_noise(self, key: jax.Array, params: EnvParams) -> StepNoise:
-        """One step's normals (:class:`StepNoise`), zero where the task has no such noise (no key is
-        spent on a noise-free task): the window step's from one half of ``key``, those of an episode's
-        end (the commands in flight, the coast) from the other."""
+    def _impact_counts(self, key: jax.Array, params: EnvParams, draw: jax.Array, shape: tuple[int, ...]) -> jax.Array:
+        """Poisson numbers of impacts in steps of ``shape`` at draw ``draw``'s window rate (zeros without
+        impacts; no key spent)."""
+        dtype = params.impact_rate.dtype
+        if not self.impulse_rows:
+            return jnp.zeros(shape, dtype)
+        return jax.random.poisson(key, params.impact_rate[draw] * params.dt, shape).astype(dtype)
+
+    def draw_noise(self, key: jax.Array, params: EnvParams, draw: jax.Array | int = 0) -> StepNoise:
+        """One step's normals (:class:`StepNoise`) for an episode of parameter draw ``draw``, zero where
+        the task has no such noise (no key is spent on a noise-free task): the window step's from one
+        half of ``key``, those of an episode's end (the commands in flight, the coast) from the other."""
         step_key, end_key = jax.random.split(key)
-        return self._with_end_noise(self._step_noise(step_key, params), end_key, params)
+        return self._with_end_noise(self._step_noise(step_key, params, draw), end_key, params, draw)
 
-    def _step_noise(self, key: jax.Array, params: EnvParams) -> StepNoise:
-        """The window step's normals (beam jitter, push, sensor) in one draw; the end's left zero."""
-        dtype, jittered, n = params.state_scale.dtype, len(self.jitter_inputs), self.n_states
-        normals = jax.random.normal(key, (jittered + 1 + n,), dtype) if self.randomised else jnp.zeros(
-            jittered + 1 + n, dtype)
-        return StepNoise(jitter=normals[:jittered], push=normals[jittered], sensor=normals[jittered + 1:],
-                         in_flight=jnp.zeros((self.max_delay + 2, jittered + 1), dtype), coast=jnp.zeros(n, dtype))
+    def _step_noise(self, key: jax.Array, params: EnvParams, draw: jax.Array | int = 0) -> StepNoise:
+        """The window step's normals (beam jitter, push, impacts, sensor) in one draw, its impact count
+        from the other half of ``key``; the end's left zero."""
+        dtype, jittered, n, impacts = params.state_scale.dtype, len(self.jitter_inputs), self.n_states, len(
+            self.impulse_rows)
+        size = jittered + 1 + impacts + n
+        normal_key, count_key = jax.random.split(key)
+        normals = jax.random.normal(normal_key if impacts else key, (size,), dtype) if self.randomised else (
+            jnp.zeros(size, dtype))
+        plant_noise = jittered + 1 + impacts
+        return StepNoise(jitter=normals[:jittered], push=normals[jittered], impacts=normals[jittered + 1:plant_noise],
+                         count=self._impact_counts(count_key, params, draw, ()), sensor=normals[plant_noise:],
+                         in_flight=jnp.zeros((self.max_delay + 2, plant_noise), dtype),
+                         in_flight_counts=jnp.zeros(self.max_delay + 2, dtype),
+                         coast=jnp.zeros((params.coast_pieces, n), dtype))
 
-    def _with_end_noise(self, noise: StepNoise, key: jax.Array, params: EnvParams) -> StepNoise:
-        """``noise`` with the normals of an episode's end drawn from ``key`` (in one draw)."""
+    def _with_end_noise(self, noise: StepNoise, key: jax.Array, params: EnvParams,
+                        draw: jax.Array | int = 0) -> StepNoise:
+        """``noise`` with the normals of an episode's end drawn from ``key`` (in one draw; the impact
+        counts of the steps in flight from the other half of it)."""
         if not self.randomised:
             return noise
-        shape = noise.in_flight.shape
-        normals = jax.random.normal(key, (shape[0] * shape[1] + self.n_states,), params.state_scale.dtype)
-        return noise.replace(in_flight=normals[:-self.n_states].reshape(shape), coast=normals[-self.n_states:])
+        flight, coast = noise.in_flight.shape, noise.coast.shape
+        normal_key, count_key = jax.random.split(key) if self.impulse_rows else (key, key)
+        normals = jax.random.normal(normal_key, (flight[0] * flight[1] + coast[0] * coast[1],),
+                                    params.state_scale.dtype)
+        split = flight[0] * flight[1]
+        return noise.replace(in_flight=normals[:split].reshape(flight), coast=normals[split:].reshape(coast),
+                             in_flight_counts=self._impact_counts(count_key, params, draw, (flight[0],)))
 
     # ------------------------------------------------------------------ reset
     def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
@@ -384,8 +456,13 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         control (beam off; with light delay, the last ``lag0`` steps one by one, kept for the delayed
         observations). The same-draws entry the cross-backend tests feed both backends through."""
         d, n, dtype = start.draw, self.n_states, params.state_scale.dtype
-        if self.noisy:
-            x = self._sample(params.pre_propagator[d], start.launch, start.pre_coast)
+        if self.along is not None:  # piece by piece along the flight from launch, beam off
+            pre_control = params.control_start_s - params.delay[d, 0].astype(dtype) * params.dt
+            x, _ = self._coast_along(params, d, start.launch, jnp.zeros(self.n_inputs, dtype), jnp.zeros((), dtype),
+                                     pre_control, start.pre_coast)
+            x = jnp.where(pre_control > 0, x, start.launch)
+        elif self.noisy:
+            x = self._sample(params.pre_propagator[d] @ self._moments(start.launch), start.pre_coast[0])
         else:
             x = ordered_dot(params.launch_phi[d], start.launch)
         states = jnp.zeros((self.state_ring, n), dtype).at[0].set(x)
@@ -394,7 +471,8 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
 
             def pre_step(s: int, carry: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
                 x, states = carry
-                moved = self._physics(params, d, x, jnp.zeros(self.n_inputs, dtype), start.pre_steps[s])
+                moved = self._physics(params, d, x, jnp.zeros(self.n_inputs, dtype), start.pre_steps[s],
+                                      start.pre_counts[s], s)
                 active = s < lag0
                 x = jnp.where(active, moved, x)
                 return x, jnp.where(active, states.at[(s + 1) % self.state_ring].set(moved), states)
@@ -404,7 +482,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         state = EnvState(time=jnp.zeros((), jnp.int32), x=x, last_command=jnp.zeros(self.n_inputs, dtype),
                          reward=zero, envelope=zero, terminated=jnp.array(False), diverged=jnp.array(False),
                          pointing=jnp.full((), jnp.nan, dtype), draw=jnp.asarray(d, jnp.int32),
-                         cutoff=jnp.asarray(start.cutoff, dtype),
+                         cutoff=jnp.asarray(start.cutoff, dtype), speed=self._speed_at(params, d, start.cutoff),
                          commands=jnp.zeros((self.command_ring, self.n_inputs), dtype), states=states,
                          sensor=jnp.asarray(start.sensor, dtype))
         return self.observe_state(state, params), state
@@ -413,7 +491,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
     def step_env(self, key: jax.Array, state: EnvState, action: jax.Array,
                  params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, dict[str, Any]]:
         """One control step with this step's noise drawn from ``key`` (:meth:`advance`)."""
-        return self.advance(state, action, self.draw_noise(key, params), params)
+        return self.advance(state, action, self.draw_noise(key, params, state.draw), params)
 
     def advance(self, state: EnvState, action: jax.Array, noise: StepNoise,
                 params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, dict[str, Any]]:
@@ -422,6 +500,18 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         episode diverge (JAX cannot raise)."""
         state = self._score(self._window_step(state, action, noise, params), noise, params)
         return self.observe_state(state, params), state, state.reward, state.terminated, self.scores(state)
+
+    def advance_batch(self, state: EnvState, action: jax.Array, noise: StepNoise,
+                      params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, dict[str, Any]]:
+        """``vmap(advance)`` over a batch (states, actions and noise lead with N; ``params`` shared), with
+        the same results, the coasts computed only for the episodes whose window has ended
+        (:func:`_on_rows`): the same-draws entry at the scale of a batch."""
+        state = jax.vmap(self._window_step, in_axes=(0, 0, 0, None))(state, action, noise, params)
+        final, lost = _on_rows(state.terminated & ~state.diverged,
+                               lambda state, noise: self._coast(state, noise, params), (state, noise))
+        state = jax.vmap(self._finish, in_axes=(0, 0, 0, None))(state, final, lost, params)
+        obs = jax.vmap(self.observe_state, in_axes=(0, None))(state, params)
+        return obs, state, state.reward, state.terminated, jax.vmap(self.scores)(state)
 
     def step_batch(self, keys: jax.Array, state: EnvState, action: jax.Array,
                    params: EnvParams) -> tuple[jax.Array, EnvState, jax.Array, jax.Array, jax.Array, dict[str, Any]]:
@@ -437,11 +527,11 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         not measurably faster: measured, not kept)."""
         split = jax.vmap(jax.random.split)(keys)
         reset_keys, noise_keys = split[:, 1], jax.vmap(jax.random.split)(split[:, 0])  # as draw_noise splits
-        noise = jax.vmap(self._step_noise, in_axes=(0, None))(noise_keys[:, 0], params)
+        noise = jax.vmap(self._step_noise, in_axes=(0, None, 0))(noise_keys[:, 0], params, state.draw)
         state = jax.vmap(self._window_step, in_axes=(0, 0, 0, None))(state, action, noise, params)
 
         def coast(state: EnvState, noise: StepNoise, end_key: jax.Array) -> tuple[jax.Array, jax.Array]:
-            return self._coast(state, self._with_end_noise(noise, end_key, params), params)
+            return self._coast(state, self._with_end_noise(noise, end_key, params, state.draw), params)
 
         final, lost = _on_rows(state.terminated & ~state.diverged, coast, (state, noise, noise_keys[:, 1]))
         state = jax.vmap(self._finish, in_axes=(0, 0, 0, None))(state, final, lost, params)
@@ -459,15 +549,16 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
     def _window_step(self, state: EnvState, action: jax.Array, noise: StepNoise, params: EnvParams) -> EnvState:
         """The window's step alone (:meth:`advance` without the coast and the score)."""
         d, now = state.draw, state.time
+        lag0 = params.delay[d, 0] if self.delayed else 0
         command = jnp.clip(jnp.asarray(action, params.action_scale.dtype), -1.0, 1.0) * params.action_scale
         commands, applied = state.commands, command
         if self.delayed:
             commands = commands.at[now % self.command_ring].set(command)
             applied = self._arrived(params, d, now, now, commands)
-        jitter_and_push = jnp.concatenate([noise.jitter, noise.push[None]])
-        x = self._physics(params, d, state.x, applied, jitter_and_push)
-        peak = self._peak_speed(params.envelope[d], jnp.concatenate([x, applied]))
-        envelope = divide(peak, self._speed_at_cutoff(state, params))
+        plant_noise = jnp.concatenate([noise.jitter, noise.push[None], noise.impacts])
+        x = self._physics(params, d, state.x, applied, plant_noise, noise.count, now + lag0)
+        peak = self._peak_speed(params.envelope[d], jnp.concatenate([x, self._with_bias(applied)]))
+        envelope = divide(peak, state.speed)
         window = params.max_steps_in_episode
         time = now + 1
         states = state.states
@@ -498,28 +589,42 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         sent = arrived_command(step, params.delay[d, step], newest)
         return jnp.where(sent >= 0, commands[sent % self.command_ring], 0.0)
 
-    def _physics(self, params: EnvParams, d: jax.Array, x: jax.Array, inputs: jax.Array,
-                 normals: jax.Array) -> jax.Array:
-        """One plant step from ``x`` with ``inputs`` held, the beam offsets jittered by ``normals[:J]``
-        and the push's relative error ``push_noise · normals[J]`` (Horner's scheme over the push
-        expansion's rows, highest power first; the kernels' ``_physics``)."""
-        for j, column in enumerate(self.jitter_inputs):
-            inputs = inputs.at[column].set(inputs[column] + params.jitter_std * normals[j])
-        rows = ordered_dot(params.step_matrix[d], jnp.concatenate([x, inputs]))
+    def _with_bias(self, inputs: jax.Array) -> jax.Array:
+        """The inputs with the constant term's 1 where the plant has one (its last column of ``B``)."""
+        return jnp.concatenate([inputs, jnp.ones(1, inputs.dtype)]) if self.biased else inputs
+
+    def _physics(self, params: EnvParams, d: jax.Array, x: jax.Array, inputs: jax.Array, normals: jax.Array,
+                 count: jax.Array, column: jax.Array | int) -> jax.Array:
+        """One plant step from ``x`` with ``inputs`` held in noise step ``column`` (step + lag0): the beam
+        offsets jittered by ``normals[:J]`` times that step's size, the push's relative error
+        ``push_noise · normals[J]`` (Horner's scheme over the push expansion's rows, highest power first),
+        then ``count`` impacts' kicks ``√count · σ_j · normals[J + 1 + j]`` on the kicked rows (the
+        kernels' ``_physics``)."""
+        jittered = len(self.jitter_inputs)
+        for j, input_column in enumerate(self.jitter_inputs):
+            kick = params.jitter_std[d, column] * normals[j]
+            inputs = inputs.at[input_column].set(inputs[input_column] + kick)
+        rows = ordered_dot(params.step_matrix[d], jnp.concatenate([x, self._with_bias(inputs)]))
         n, powers = self.n_states, params.step_matrix.shape[1] // self.n_states
         result = rows[(powers - 1) * n:]
         if powers > 1:
-            eps = params.push_noise * normals[len(self.jitter_inputs)] if self.pushed else 0.0
+            eps = params.push_noise * normals[jittered] if self.pushed else 0.0
             for p in range(powers - 2, -1, -1):
                 result = rows[p * n:(p + 1) * n] + eps * result
+        for j, row in enumerate(self.impulse_rows):
+            kick = jnp.sqrt(count) * params.impact_std[d, j]
+            result = result.at[row].set(result[row] + kick * normals[jittered + 1 + j])
         return result
 
-    def _speed_at_cutoff(self, state: EnvState, params: EnvParams) -> jax.Array:
-        """The axial speed at the episode's cut-off: the plant's at the nominal cut-off, or ``a t`` at a
-        jittered one (a Newtonian flight, checked in :func:`bank_of`)."""
+    def _speed_at(self, params: EnvParams, d: jax.Array, cutoff: jax.Array) -> jax.Array:
+        """The axial speed at an episode's cut-off: the flight's (the plant's ``speed``) along a
+        flight, the plant's at the nominal cut-off, or ``a t`` at a jittered one (a Newtonian flight,
+        checked in :func:`bank_of`)."""
+        if self.along is not None:
+            return self.along.speed(params.along, d, jnp.asarray(cutoff, params.dt.dtype))
         if self.jittered_cutoff:
-            return params.acceleration[state.draw] * state.cutoff
-        return params.speed_at_cutoff[state.draw]
+            return params.acceleration[d] * cutoff
+        return params.speed_at_cutoff[d]
 
     def _diverged(self, x: jax.Array, limits: jax.Array) -> jax.Array:
         """The plant's divergence rule (:attr:`~sail_env.core.plant.Plant.divergence_groups`); NaN diverges."""
@@ -541,14 +646,26 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
             return jnp.max(jnp.abs(speeds))
         return jnp.sqrt(jnp.max(squares))
 
-    def _sample(self, propagator: jax.Array, x: jax.Array, normals: jax.Array) -> jax.Array:
-        """The state after a noisy piece of second-moment ``propagator`` from ``x``: drawn from its
-        exact moments with ``normals``; NaN where they overflow (the sail has left the beam)."""
-        mean, cov = mean_and_covariance(propagator @ second_moment(x, jnp.zeros((x.shape[0], x.shape[0]), x.dtype),
-                                                                   xp=jnp))
+    @staticmethod
+    def _moments(x: jax.Array) -> jax.Array:
+        """The second moments of a known state ``x`` (``vech`` of ``E[(x, 1)(x, 1)ᵀ]``)."""
+        return second_moment(x, jnp.zeros((x.shape[0], x.shape[0]), x.dtype), xp=jnp)
+
+    @staticmethod
+    def _sample(moments: jax.Array, normals: jax.Array) -> jax.Array:
+        """The state drawn from its exact second ``moments`` with ``normals``; NaN where they overflow
+        (the sail has left the beam)."""
+        mean, cov = mean_and_covariance(moments)
         finite = jnp.all(jnp.isfinite(mean)) & jnp.all(jnp.isfinite(cov))
         safe_cov = jnp.where(finite, cov, 0.0)
         return jnp.where(finite, sample_gaussian(mean, safe_cov, normals, xp=jnp), jnp.nan)
+
+    def _coast_along(self, params: EnvParams, d: jax.Array, x: jax.Array, u: jax.Array, start: jax.Array,
+                     duration: jax.Array, normals: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """The plant's coast of a model that changes along the flight (:class:`~sail_env.jax.along.Coast`)."""
+        return self.along.coast(params.along, d, x, u, start, duration, normals, params.into_units,
+                                params.from_units, lambda moments, _, drawn: self._sample(moments, drawn),
+                                lambda state: self._diverged(state, params.limits[d]))
 
     def _coast(self, state: EnvState, noise: StepNoise, params: EnvParams) -> tuple[jax.Array, jax.Array]:
         """From the end of the window to cut-off: the commands still in flight step by step, then the
@@ -564,24 +681,27 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
             return final, lost
         x, reached = state.x, state.time
         if self.delayed:
-            last = params.max_steps_in_episode - 1
+            last, lag0 = params.max_steps_in_episode - 1, params.delay[d, 0]
 
             def in_flight(k: int, carry: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
                 x, now = carry
                 moving = now - params.delay[d, now] < last
                 applied = self._arrived(params, d, now, last, state.commands)
-                moved = self._physics(params, d, x, applied, noise.in_flight[k])
+                moved = self._physics(params, d, x, applied, noise.in_flight[k], noise.in_flight_counts[k],
+                                      now + lag0)
                 return jnp.where(moving, moved, x), jnp.where(moving, now + 1, now)
 
             x, reached = jax.lax.fori_loop(0, self.max_delay + 2, in_flight, (x, reached))
         remaining = jnp.maximum(state.cutoff - (params.control_start_s + reached.astype(x.dtype) * params.dt), 0.0)
-        pick, lift0, lift1, lift2 = (jnp.asarray(a, x.dtype) for a in held_input_maps(self.n_states, self.n_inputs))
         held = state.last_command
+        if self.along is not None:
+            return self._coast_along(params, d, x, held, state.cutoff - remaining, remaining, noise.coast)
+        pick, lift0, lift1, lift2 = (jnp.asarray(a, x.dtype) for a in held_input_maps(self.n_states, self.n_inputs))
         lift = lift0 + jnp.tensordot(held, lift1, 1) + jnp.tensordot(jnp.outer(held, held), lift2, 2)
         generator = params.coast_generator[d] @ lift
         balanced = generator * (remaining * params.into_units)
         propagator = jax.scipy.linalg.expm(balanced, max_squarings=MAX_SQUARINGS) * params.from_units
-        final = self._sample(propagator, x, noise.coast)
+        final = self._sample(propagator @ self._moments(x), noise.coast[0])
         return final, self._diverged(final, limits)
 
     def _score(self, state: EnvState, noise: StepNoise, params: EnvParams) -> EnvState:
@@ -594,7 +714,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         (read only where the window ended inside the beam): the terminal reward, the divergence
         penalty, the pointing."""
         velocity = final[jnp.array(self.velocity_rows)]
-        pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), self._speed_at_cutoff(state, params))
+        pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), state.speed)
         scored = state.terminated & ~state.diverged
         bonus = jnp.where(succeeded(pointing), SUCCESS_BONUS, 0.0)
         reward = jnp.where(scored, state.reward + (-log_ratio(pointing) + bonus), state.reward)

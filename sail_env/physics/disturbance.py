@@ -70,6 +70,11 @@ class BeamDisturbance(Disturbance):
     def std_m(self, plant: Any, p: Any, t: np.ndarray) -> np.ndarray | float:
         """Standard deviation [m] of the offset in a step at flight times ``t`` ((k,) or a grid
         (k, s)) of the environments whose parameter draws are ``p``: a float, or shaped as ``t``."""
+        return self.std_along(plant.distance_flown(p, t) if self.needs_distance else None)
+
+    def std_along(self, distance: Any, xp: Any = np) -> Any:
+        """The same at the sail's ``distance`` [m] from the array (None where it needs none): the law
+        itself, in the array module ``xp`` (the JAX backend reads it along a flight)."""
         raise NotImplementedError
 
 
@@ -85,6 +90,11 @@ class ImpulseDisturbance(Disturbance):
     def rate_and_kick(self, plant: Any, p: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mean rate [1/s] (k,) of the kicks at flight times ``t`` (k,) and one kick's standard
         deviation (k, r) on each of :meth:`rows` (SI rates)."""
+        return self.at_speed(plant, plant.speed(p, t))
+
+    def at_speed(self, plant: Any, speed: Any, xp: Any = np) -> tuple[Any, Any]:
+        """The same at the sail's axial ``speed`` [m/s] (..., ): the law itself, in the array module ``xp``
+        (the JAX backend reads it along a flight)."""
         raise NotImplementedError
 
 

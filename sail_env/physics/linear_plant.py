@@ -213,6 +213,11 @@ class LinearPlant:
         deviation (k, r) of one impact's kick on each of :attr:`impulse_rows` (SI rates)."""
         return self._impulse.rate_and_kick(self, p, t)
 
+    def impacts_along(self, speed: object, xp: object = np) -> tuple[object, object]:
+        """:meth:`impact_rate_and_std` at the sail's axial ``speed`` [m/s], in the array module ``xp``: the
+        law the JAX backend reads along a flight."""
+        return self._impulse.at_speed(self, speed, xp)
+
     def _impact_psd(self, p: PlantParams, t: np.ndarray) -> np.ndarray | None:
         """White-noise intensity (k, n, n) of the impacts at times ``t`` (k,): rate × a kick's mean
         square on :attr:`impulse_rows` (None without impacts)."""
@@ -307,6 +312,18 @@ class LinearPlant:
             return 0.0
         std = functools.reduce(np.hypot, (d.std_m(self, p, t) for d in self._beams))
         return std[..., None] if np.ndim(std) else std
+
+    def jitter_std_along(self, distance: object, xp: object = np) -> object:
+        """:meth:`jitter_std` at the sail's ``distance`` [m] from the array (None where no beam disturbance
+        reads it), in the array module ``xp``: the law the JAX backend reads along a flight."""
+        if not self._beams:
+            return 0.0
+        return functools.reduce(xp.hypot, (d.std_along(distance, xp) for d in self._beams))
+
+    def flight_model(self, p: PlantParams) -> object | None:
+        """What a coast along the flight reads (the JAX backend's): None for a model that does not change
+        along it; the 3D plant's ``FlightModel``."""
+        return None
 
     @single_threaded
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,

@@ -116,8 +116,8 @@ def test_tasks_the_backend_does_not_carry_are_refused() -> None:
         sail_env.jax.make("LightSailDeepDish-v0", parameter_spread=0.05)
     with pytest.raises(ValueError, match="draws must be >= 1"):
         sail_env.jax.make("LightSailRealistic-v0", draws=0)
-    with pytest.raises(ValueError, match="a coast whose model changes along the flight"):
-        sail_env.jax.make("LightSail3DRealistic-v1")
+    with pytest.raises(ValueError, match="a coast along the flight the plant does not hand over"):
+        sail_env.jax.make("LightSailUncertain-v2")
     with pytest.raises(ValueError, match="power control"):
         sail_env.jax.make("LightSail3D-v0", power_control=True)
     with pytest.raises(ValueError, match="no task 'CartPole-v1'"):

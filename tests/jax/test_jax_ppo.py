@@ -50,7 +50,7 @@ def test_bad_settings_are_refused_naming_them() -> None:
     assert dataclasses.replace(PPOConfig(), total_timesteps=10**6).num_updates == 10**6 // 4096
 
 
-@pytest.mark.parametrize("argv, message", [(["--env", "LightSail3DRealistic-v1"], "JAX backend has"),
+@pytest.mark.parametrize("argv, message", [(["--env", "LightSailUncertain-v2"], "JAX backend has"),
                                            (["--seeds", "0"], "--seeds"), (["-n", "10"], "total_timesteps")])
 def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, argv: list[str], message: str) -> None:
     done = subprocess.run([sys.executable, "train_jax.py", *argv, "--runs-dir", str(tmp_path / "runs")], cwd=ROOT,

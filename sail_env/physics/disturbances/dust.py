@@ -49,19 +49,19 @@ class Dust(ImpulseDisturbance):
     def rows(self, plant: Any) -> tuple[int, ...]:
         return (*plant.velocity_rows, *plant.tilt_rate_rows)
 
-    def rate_and_kick(self, plant: Any, p: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The sail of aperture ``a`` sweeps ``n π a² v`` grains a second at the impact speed ``v``;
-        a grain of mass ``m_g`` hitting at a uniformly random point of the disc kicks each tilt rate by
-        ``m_g v y / I_t`` (``y`` of RMS ``a/2``) and each lateral speed by ``m_g u / m`` (``u`` its own
-        speed per axis). Nominal mass and inertia."""
+    def at_speed(self, plant: Any, speed: Any, xp: Any = np) -> tuple[Any, Any]:
+        """The sail of aperture ``a`` sweeps ``n π a² v`` grains a second at the impact speed ``v`` (its
+        axial ``speed`` and the grains' own); a grain of mass ``m_g`` hitting at a uniformly random point
+        of the disc kicks each tilt rate by ``m_g v y / I_t`` (``y`` of RMS ``a/2``) and each lateral
+        speed by ``m_g u / m`` (``u`` its own speed per axis). Nominal mass and inertia."""
         lin = plant.linearisation
         radius = plant.aperture_radius_m
-        speed = np.hypot(plant.speed(p, t), DUST_SPEED_M_S)
-        rate = self.dust_density_m3 * math.pi * radius**2 * speed
+        impact = xp.hypot(speed, DUST_SPEED_M_S)
+        rate = self.dust_density_m3 * math.pi * radius**2 * impact
         grain = self.dust_grain_mass_kg
-        lateral = np.full_like(speed, grain * DUST_SPEED_M_S / math.sqrt(3.0) / lin.mass_kg)
-        angular = grain * speed * 0.5 * radius / lin.inertia[0, 0]
-        return rate, np.stack([lateral, lateral, angular, angular], axis=-1)
+        lateral = xp.full_like(impact, grain * DUST_SPEED_M_S / math.sqrt(3.0) / lin.mass_kg)
+        angular = grain * impact * 0.5 * radius / lin.inertia[0, 0]
+        return rate, xp.stack([lateral, lateral, angular, angular], axis=-1)
 
 
 def check_grain_mass(grain_mass_kg: float) -> None:

@@ -33,5 +33,5 @@ class GroundJitter(BeamDisturbance):
                              f"spot's jitter D·δ at the farthest cut-off, D <= {farthest:.4g} m, at most the aperture "
                              f"radius, as beam_jitter_m), got {self.ground_jitter_rad}")
 
-    def std_m(self, plant: Any, p: Any, t: np.ndarray) -> np.ndarray:
-        return plant.distance_flown(p, t) * self.ground_jitter_rad
+    def std_along(self, distance: Any, xp: Any = np) -> Any:
+        return distance * self.ground_jitter_rad

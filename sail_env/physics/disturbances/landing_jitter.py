@@ -28,5 +28,5 @@ class LandingJitter(BeamDisturbance):
             raise ValueError(f"beam_jitter_m must be in [0, {radius:g}] m (at most the aperture radius: the beam "
                              f"must land on the sail), got {self.beam_jitter_m}")
 
-    def std_m(self, plant: Any, p: Any, t: np.ndarray) -> float:
+    def std_along(self, distance: Any, xp: Any = np) -> float:
         return self.beam_jitter_m

@@ -30,6 +30,7 @@ import dataclasses
 import math
 import warnings
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -37,7 +38,7 @@ from sail_env.physics import seed
 from sail_env.physics.checks import boolean, check_timing, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.linear import LinearModel, mode_rates, push_expansion, zoh_discretize
-from sail_env.physics.noise import moment_growth_rate
+from sail_env.physics.noise import WhiteNoise, moment_growth_rate
 from sail_env.physics.linear_plant import MAX_TILT_RAD, LinearPlant, PlantParams
 from sail_env.physics.pointing import envelope_table
 from sail_env.physics.rigid3d.body import INPUT_NAMES, RigidSail
@@ -128,6 +129,38 @@ class RigidTaskConfig(seed.Timing):
 
 
 
+@dataclasses.dataclass(frozen=True)
+class FlightModel:
+    """What a coast along the flight reads of a :class:`RigidPlant` and its draws (:meth:`RigidPlant.
+    flight_model`): the tables, the model's fixed parts, and per draw (K, ...) the window's model and
+    how its radiation terms scale; the JAX backend's coast (``sail_env.jax.along``) is handed these."""
+
+    flights: DrawFlights
+    scales: ScaleTable | None  # the widened spot's terms (None: the spot never widens)
+    kinematics: np.ndarray  # (n, n) the part of A no radiation term scales
+    radiation: np.ndarray  # (n, n) the nominal sail's radiation part of A in the unwidened spot
+    radiation_b: np.ndarray  # (n, c) and of B, with the constant term's column
+    kink_distances: np.ndarray  # (J,) distances [m] where the model has a kink (the spot widens, an edge)
+    nominal_acceleration: float  # [m/s²]: a draw's is ``ratio`` times it
+    relativistic_speed: bool  # the axial speed is the flight's (else ``a t``)
+    reads_distance: bool  # a beam disturbance grows with the distance
+    noise: WhiteNoise  # the push noise's intensity
+    dt: float  # the control step [s]: the beam jitter's intensity is σ² dt
+    config: RigidTaskConfig
+    linearisation: Linearisation
+    ratio: np.ndarray  # (K,) each draw's F/m over the nominal
+    rows: np.ndarray  # (K, n) each draw's scaling of the radiation terms' rows
+    window_a: np.ndarray  # (K, n, n) the window's model
+    window_b: np.ndarray  # (K, n, c)
+    window_power: np.ndarray  # (K,) the Doppler power factor at the window's middle
+    window_scale: np.ndarray  # (K,) the spot's scale there
+    growth: np.ndarray  # (K,) the draw's growth rate [1/s]
+
+    def payload_column(self, radiation: Any, push: Any, xp: Any = np) -> Any:
+        """:func:`payload_term` of a spot's radiation part of ``A`` and its push, in the array module ``xp``."""
+        return payload_term(self.config, self.linearisation, radiation, push, xp=xp)
+
+
 @dataclasses.dataclass
 class RigidParams(PlantParams):
     """:class:`PlantParams` and each draw's scaling ``rows`` (·, 8) of the radiation terms' rows
@@ -140,9 +173,10 @@ class RigidParams(PlantParams):
 
 
 def payload_term(config: RigidTaskConfig, lin: Linearisation, radiation: np.ndarray,
-                 push: np.ndarray | float) -> np.ndarray:
+                 push: np.ndarray | float, xp: Any = np) -> np.ndarray:
     """The constant term ``c`` (..., 8) of a payload ``e`` off the axis along x (docs/physics.md §15),
-    for the radiation part of ``A`` (..., 8, 8) and the push [N] (...) of a spot.
+    for the radiation part of ``A`` (..., 8, 8) and the push [N] (...) of a spot; ``xp`` the array module
+    (the JAX backend's coast builds it along the flight).
 
     The CoM sits ``e_c = e m_craft / m`` off the axis, so the sail lies ``e_c`` to −x of it: the
     radiation terms see the CoM offset ``x − e_c``, and the push ``F`` through the axis exerts the
@@ -150,8 +184,11 @@ def payload_term(config: RigidTaskConfig, lin: Linearisation, radiation: np.ndar
     """
     offset = config.payload_offset_m * config.sail.craft_mass_kg / lin.mass_kg
     term = -offset * radiation[..., :, X]
-    term[..., OMEGA_Y] += np.asarray(push) * offset / lin.inertia[0, 0]
-    return term
+    torque = xp.asarray(push) * offset / lin.inertia[0, 0]
+    if xp is np:
+        term[..., OMEGA_Y] += torque
+        return term
+    return term.at[..., OMEGA_Y].add(torque)
 
 
 class RigidPlant(LinearPlant):
@@ -475,6 +512,26 @@ class RigidPlant(LinearPlant):
 
     def _push_terms(self, p: PlantParams) -> tuple[np.ndarray, np.ndarray]:
         return p.a - self.kinematics, p.b
+
+    def flight_model(self, p: RigidParams) -> FlightModel | None:
+        """The :class:`FlightModel` of draws ``p`` (None without the flights' table)."""
+        if self.flights is None:
+            return None
+        k = len(p.acceleration)
+        ratio = p.acceleration / self.nominal_acceleration * np.ones(k)
+        middle = np.full(k, self.config.window_middle_s)
+        length = self.config.diffraction_length_m
+        kinks = [] if self.scales is None else [length * math.exp(x) for x in self.scales.kinks]
+        return FlightModel(
+            flights=self.flights, scales=self.scales, kinematics=self.kinematics, radiation=self.radiation,
+            radiation_b=self.radiation_b, kink_distances=np.array(kinks),
+            nominal_acceleration=self.nominal_acceleration,
+            relativistic_speed=self.config.relativistic or self.diffracting,
+            reads_distance=any(d.needs_distance for d in self._beams), noise=self.white_noise, dt=self.dt,
+            config=self.config, linearisation=self.linearisation, ratio=ratio, rows=p.rows * np.ones((k, 1)),
+            window_a=p.a * np.ones((k, 1, 1)), window_b=p.b * np.ones((k, 1, 1)),
+            window_power=self.power_factor(ratio, middle), window_scale=self.flights.beam_scale(ratio, middle),
+            growth=p.growth * np.ones(k))
 
     def rate_scale(self) -> float:
         """The nominal model's fastest rate [1/s]: the time scale of the observations."""

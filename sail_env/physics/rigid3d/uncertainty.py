@@ -50,7 +50,7 @@ import numpy as np
 from sail_env.physics.checks import boolean, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.memo import built_once
-from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidTaskConfig, RigidPlant
+from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidParams, RigidTaskConfig, RigidPlant
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation
@@ -328,6 +328,11 @@ class UncertainPlant(RigidPlant):
 
     def params(self, factors: np.ndarray):
         return self._shared if self._shared is not None else self._build(factors, shared=False)
+
+    def flight_model(self, p: RigidParams) -> None:
+        """None: each draw's own radiation terms along the flight (:meth:`draw_radiation`) are not handed
+        over as arrays yet, so the JAX backend refuses the uncertain tasks by name."""
+        return None
 
     def _sail_terms(self, factors: np.ndarray) -> tuple[np.ndarray, ...]:
         sail = self.config.sail
