@@ -46,6 +46,7 @@ from flax import struct
 
 from sail_env.jax.arith import divide
 from sail_env.physics.constants import SPEED_OF_LIGHT
+from sail_env.physics.rigid3d import flight
 from sail_env.physics.rigid3d.flight import DrawFlights
 from sail_env.physics.rigid3d.scales import ScaleTable
 
@@ -116,22 +117,10 @@ def _grid_position(x: jax.Array, grid: jax.Array) -> jax.Array:
     return jnp.where(x <= grid[0], 0.0, jnp.where(x >= grid[last], float(last), inside)).astype(x.dtype)
 
 
-def _hermite(t: jax.Array, start: jax.Array, end: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """:func:`sail_env.physics.rigid3d.flight._hermite`: ``(γβ, D)`` at ``t`` between two nodes (6,), cubic in
-    ``γβ`` and quintic in ``D``, its expressions as written there (Python's order, left to right)."""
-    width = end[0] - start[0]
-    x = (t - start[0]) / width  # the width is the read's own interval's, never shared: a plain division
-    x2 = x * x
-    x3 = x2 * x
-    rest = (1.0 - x) * (1.0 - x)
-    momentum = ((1.0 + 2.0 * x) * rest * start[1] + x2 * (3.0 - 2.0 * x) * end[1]
-                + width * (x * rest * start[2] + x2 * (x - 1.0) * end[2]))
-    far = x3 * (10.0 - 15.0 * x + 6.0 * x2)
-    distance = ((1.0 - far) * start[3] + far * end[3]
-                + width * ((x - 6.0 * x3 + 8.0 * x3 * x - 3.0 * x3 * x2) * start[4]
-                           + (-4.0 * x3 + 7.0 * x3 * x - 3.0 * x3 * x2) * end[4])
-                + width * width * (0.5 * x2 * rest * (1.0 - x) * start[5] + 0.5 * x3 * rest * end[5]))
-    return momentum, distance
+#: ``(γβ, D)`` at ``t`` between two nodes (6,), cubic in ``γβ`` and quintic in ``D``: the flight table's own
+#: compiled function's Python source (:func:`sail_env.physics.rigid3d.flight._hermite`), traced by JAX, so
+#: the formula is written once and its expressions keep their order.
+_hermite = flight._hermite.py_func
 
 
 @jax.jit  # traced once per trace, not at each of its reads (8 for the four quantities): tracing 4x faster
