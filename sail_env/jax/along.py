@@ -8,7 +8,7 @@ grows with the distance and the dust impacts with the speed. The Numba core's pl
 impacts' intensities held at the piece's middle (the midpoint rule), a piece that contains a time where
 the model has a kink (the spot starting to widen, a hard beam edge meeting the rim) split there, and the
 state drawn from the exact second moments at each piece's end. This module is that coast for one
-environment: the model at a time (:func:`piece_model`, the plant's ``_coast_params``), its moment
+environment: the model at a time (:meth:`Coast.piece_model`, the plant's ``_coast_params``), its moment
 generator (:func:`~sail_env.physics.noise.moment_generator` in ``jax.numpy``), the exponential, the
 kinks (50 halvings, as the plant's ``_kink_times``) and the draws. The tables it reads (the flights,
 the widened spot's terms) are the NumPy plant's own arrays (:mod:`sail_env.jax.tables`); the
@@ -33,7 +33,8 @@ from sail_env.physics.noise import moment_generator, second_moment
 from sail_env.physics.rigid3d.plant import BISECTIONS, COAST_SEGMENT_S, FlightModel
 
 #: Squarings of a piece's exponential (:func:`expm`): a 5 s piece's balanced generator needs at most 9.8
-#: on the realistic 3D tasks (measured over their draws, commands and flight times), so two to spare.
+#: on the realistic 3D tasks (measured over their draws, commands and flight times), so two to spare; the
+#: env's bank refuses a task whose pieces would need more (``sail_env.jax.env``).
 MAX_SQUARINGS = 12
 #: Higham's (2005) degree-13 Padé approximant of ``e^x``: its coefficients ``b_0 … b_13`` and the largest
 #: 1-norm ``θ_13`` it serves to double precision.

@@ -55,6 +55,7 @@ from gymnax.environments import environment, spaces
 from sail_env.core.episode import OBSERVATION_LIMIT
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, succeeded
 from sail_env.core.spec import EpisodeSpec
+from sail_env.jax import along as along_module
 from sail_env.jax.along import AlongFlight, Coast, along_of
 from sail_env.jax.arith import divide, log_ratio, ordered_dot
 from sail_env.physics.linear import sample_gaussian
@@ -214,8 +215,10 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
     launch_phi = coast_phi = coast_gamma = empty
     pre_propagator, coast_generator = np.zeros((k, h, h)), np.zeros((k, h, 0))
     if plant.time_varying:  # piece by piece along the flight (sail_env.jax.along)
-        along = along_of(plant.flight_model(p), dtype)
+        model = plant.flight_model(p)
+        along = along_of(model, dtype)
         pieces = int(plant.coast_pieces(p, longest).max())
+        _check_along_squarings(plant, spec, model, along_of(model, jnp.float64), float((longest / pieces).max()))
         pre_pieces = int(plant.coast_pieces(p, pre_control).max())
     elif plant.noisy:
         # The longest coast must be one piece, as the JAX coast of a fixed model is.
@@ -314,6 +317,30 @@ def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarra
     if np.log2(worst / _PADE13_THETA) > MAX_SQUARINGS - 1:
         raise ValueError(f"the JAX backend's coast exponential would need {np.log2(worst / _PADE13_THETA):.1f} "
                          f"squarings (at most {MAX_SQUARINGS - 1} with a margin): this task's coast is too long")
+
+
+def _check_along_squarings(plant: Any, spec: EpisodeSpec, model: Any, along: AlongFlight, piece_s: float) -> None:
+    """Refuse a bank whose coast pieces (``piece_s`` long at most) need more than
+    :data:`~sail_env.jax.along.MAX_SQUARINGS` − 1 squarings of their exponential (``along.expm`` gives NaN
+    beyond its squarings, which would end the episode as a divergence): the pieces' own generators
+    (:meth:`~sail_env.jax.along.Coast.generator`) for the 32 draws of the fastest dynamics, from the start of
+    control to the latest cut-off, with the commands at the action box's corners and centre."""
+    m = plant.n_inputs
+    fastest = np.argsort(np.abs(model.window_a).sum(axis=1).max(axis=1))[-32:]
+    corners = np.vstack([np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T, np.zeros(m)]) * spec.action_scale
+    latest = spec.config.beam_cutoff_s + spec.randomisation.cutoff_jitter_s
+    times = np.array([spec.config.control_start_s, spec.window_middle_s, 0.5 * (spec.window_middle_s + latest), latest])
+    grid = np.meshgrid(fastest, np.arange(len(corners)), times, indexing="ij")
+    d, corner, t = (a.ravel() for a in grid)
+    into, _ = balancing(plant.start_limits())
+    generators = jax.vmap(Coast(plant, model).generator, in_axes=(None, 0, 0, 0))(
+        along, jnp.asarray(d), jnp.asarray(corners[corner]), jnp.asarray(t))
+    worst = float(np.abs(np.asarray(generators) * (piece_s * into)).sum(axis=-2).max())
+    needed = np.log2(worst / along_module.THETA13)
+    if needed > along_module.MAX_SQUARINGS - 1:
+        raise ValueError(f"the JAX backend's coast pieces would need {needed:.1f} squarings of their exponential "
+                         f"(at most {along_module.MAX_SQUARINGS - 1} with a margin): this task's sail is too fast "
+                         f"for its {piece_s:.3g} s pieces")
 
 
 class SailEnv(environment.Environment[EnvState, EnvParams]):

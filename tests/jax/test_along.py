@@ -12,6 +12,7 @@ jax = pytest.importorskip("jax")
 pytest.importorskip("gymnax")
 
 import jax.numpy as jnp  # noqa: E402
+import sail_env.jax  # noqa: E402
 import scipy.linalg  # noqa: E402
 
 from sail_env.envs.rigid3d import rigid3d_spec  # noqa: E402
@@ -99,3 +100,15 @@ def test_a_whole_coast_is_the_plants(task):
     np.testing.assert_allclose(got / spec.state_scale, want / spec.state_scale, rtol=1e-6, atol=1e-6)
     pointing, reference = np.hypot(got[:, 2], got[:, 3]), np.hypot(want[:, 2], want[:, 3])
     np.testing.assert_allclose(pointing, reference, rtol=1e-6)
+
+
+def test_a_bank_whose_pieces_need_more_squarings_is_refused(monkeypatch):
+    """v1's 5 s pieces need up to 9.8 squarings: with 9 the bank is refused by name (``along.expm`` would
+    give NaN, ending the episode as a divergence), with the default 12 it is built."""
+    from sail_env.jax import along
+
+    monkeypatch.setattr(along, "MAX_SQUARINGS", 9)
+    with pytest.raises(ValueError, match="squarings of their exponential"):
+        sail_env.jax.make("LightSail3DRealistic-v1", draws=8)
+    monkeypatch.undo()
+    sail_env.jax.make("LightSail3DRealistic-v1", draws=8)
