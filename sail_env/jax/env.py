@@ -300,6 +300,13 @@ def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
     return jax.lax.while_loop(lambda carry: carry[0] < count, one, (jnp.zeros((), rows.dtype), template))[1]
 
 
+def _box_commands(spec: EpisodeSpec, m: int) -> np.ndarray:
+    """The beam commands (2^m + 1, m) at the action box's corners and its centre: where a coast's exponential
+    is checked (its generator is a polynomial of degree 2 in the held command)."""
+    corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T
+    return np.vstack([corners, np.zeros(m)]) * spec.action_scale
+
+
 def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarray, longest: np.ndarray) -> None:
     """Refuse a bank whose coast needs more than :data:`MAX_SQUARINGS` − 1 squarings of its
     exponential with a command held at a corner or the centre of the action box. The generator's
@@ -309,8 +316,7 @@ def _check_squarings(plant: Any, spec: EpisodeSpec, p: Any, generator: np.ndarra
     pick, lift0, lift1, lift2 = held_input_maps(n, m)
     into, _ = balancing(plant.start_limits())
     worst = 0.0
-    corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T
-    for corner in np.vstack([corners, np.zeros(m)]) * spec.action_scale:
+    for corner in _box_commands(spec, m):
         lift = lift0 + np.tensordot(corner, lift1, 1) + np.tensordot(np.outer(corner, corner), lift2, 2)
         coast = (pick @ generator @ lift) * (longest[:, None, None] * into)
         worst = max(worst, float(np.abs(coast).sum(axis=-2).max()))
@@ -327,7 +333,7 @@ def _check_along_squarings(plant: Any, spec: EpisodeSpec, model: Any, along: Alo
     control to the latest cut-off, with the commands at the action box's corners and centre."""
     m = plant.n_inputs
     fastest = np.argsort(np.abs(model.window_a).sum(axis=1).max(axis=1))[-32:]
-    corners = np.vstack([np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T, np.zeros(m)]) * spec.action_scale
+    corners = _box_commands(spec, m)
     latest = spec.config.beam_cutoff_s + spec.randomisation.cutoff_jitter_s
     times = np.array([spec.config.control_start_s, spec.window_middle_s, 0.5 * (spec.window_middle_s + latest), latest])
     grid = np.meshgrid(fastest, np.arange(len(corners)), times, indexing="ij")
