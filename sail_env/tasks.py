@@ -116,9 +116,10 @@ RIGID3D_TASKS["LightSailUncertain-v2"] = {**RIGID3D_TASKS["LightSail3DRealistic-
 TASKS: dict[str, dict] = {**PLANAR_TASKS, **RIGID3D_TASKS}
 
 #: The tasks the JAX backend (``sail_env.jax``) carries, registered as ``jax/<id>`` too (Gymnasium's
-#: functional API): the planar ones, the 3D sail and the realistic 3D tasks (a coast whose model changes
-#: along the flight, dust impacts, the payload's constant drive); the uncertain tasks' draws are not yet.
-JAX_TASKS = (*PLANAR_TASKS, "LightSail3D-v0", "LightSail3DRealistic-v0", "LightSail3DRealistic-v1")
+#: functional API): the planar ones, the 3D sail, the realistic 3D tasks (a coast whose model changes
+#: along the flight, dust impacts, the payload's constant drive) and the uncertain tasks (each draw its own sail).
+JAX_TASKS = (*PLANAR_TASKS, "LightSail3D-v0", "LightSail3DRealistic-v0", "LightSail3DRealistic-v1",
+             "LightSailUncertain-v0", "LightSailUncertain-v1", "LightSailUncertain-v2")
 
 #: ``(entry_point, vector_entry_point)`` of each family of tasks.
 ENTRY_POINTS = {

@@ -25,12 +25,14 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 from sail_env.jax import tables
 from sail_env.physics.linear_plant import GROWTH_PER_PIECE
 from sail_env.physics.noise import moment_generator, second_moment
 from sail_env.physics.rigid3d.plant import BISECTIONS, COAST_SEGMENT_S, FlightModel
+from sail_env.physics.rigid3d.uncertainty import with_draw_terms
 
 #: Squarings of a piece's exponential (:func:`expm`): a 5 s piece's balanced generator needs at most 9.8
 #: on the realistic 3D tasks (measured over their draws, commands and flight times), so two to spare; the
@@ -82,11 +84,34 @@ class AlongFlight:
     window_power: jax.Array  # (K,) the Doppler power factor at the window's middle
     window_scale: jax.Array  # (K,) the spot's scale at the window's middle
     growth: jax.Array  # (K,) the draw's growth rate [1/s] (pieces: at most e^20 each)
+    draw: DrawArrays | None = None  # each draw's own sail (the uncertain tasks; None: the nominal sail's)
 
 
-def along_of(model: FlightModel, dtype: jnp.dtype) -> AlongFlight:
+@struct.dataclass
+class DrawArrays:
+    """A :class:`~sail_env.physics.rigid3d.uncertainty.DrawTerms`' arrays (K, ...) and, where the spot
+    widens, the widened table's entries on the grid points the bank's flights reach (:func:`along_of`)."""
+
+    near_a: jax.Array  # (K, n, n) the radiation part of A minus the nominal sail's, unwidened spot
+    near_inputs: jax.Array  # (K, n, 4) and of B
+    near_push: jax.Array  # (K,) the push over I_t minus the nominal sail's
+    bias: jax.Array  # (K, 2) the constant beam offset at the sail [m]
+    inertia: jax.Array  # (K,) I_t [kg m²]
+    nominal_inertia: jax.Array
+    payload_offset: jax.Array  # the CoM's distance from the axis [m]
+    nominal: tables.ScaleArrays | None  # the nominal sail's entries of the widened table, on the grid reached
+    drawn_a: jax.Array | None  # (K, G, n, n) s² times each draw's radiation part of A on that grid
+    drawn_inputs: jax.Array | None  # (K, G, n, 4)
+    drawn_push: jax.Array | None  # (K, G)
+    v1_widening: bool = struct.field(pytree_node=False, default=False)
+
+
+def along_of(model: FlightModel, dtype: jnp.dtype, until_s: float | None = None) -> AlongFlight:
     """The :class:`AlongFlight` of a plant's :class:`~sail_env.physics.rigid3d.plant.FlightModel` (its
-    ``flight_model(p)``): every array the plant's own."""
+    ``flight_model(p)``): every array the plant's own. The draws' own widened-spot terms are kept on the
+    grid points their flights reach by ``until_s`` (None: the whole grid), and one more: 4,096 draws'
+    whole grid would be 165 MB, the 7 points ``LightSailUncertain-v2``'s bank reaches 22 MB; a read beyond
+    them is NaN, as beyond the table's top."""
 
     def array(values: Any) -> jax.Array:
         return jnp.asarray(values, dtype=dtype)
@@ -97,7 +122,32 @@ def along_of(model: FlightModel, dtype: jnp.dtype) -> AlongFlight:
         kinematics=array(model.kinematics), radiation=array(model.radiation), radiation_b=array(model.radiation_b),
         kink_distances=array(model.kink_distances), ratio=array(model.ratio), rows=array(model.rows),
         window_a=array(model.window_a), window_b=array(model.window_b), window_power=array(model.window_power),
-        window_scale=array(model.window_scale), growth=array(model.growth))
+        window_scale=array(model.window_scale), growth=array(model.growth),
+        draw=None if model.draw is None else _draw_arrays(model, dtype, until_s))
+
+
+def _draw_arrays(model: FlightModel, dtype: jnp.dtype, until_s: float | None) -> DrawArrays:
+    """The :class:`DrawArrays` of a :class:`FlightModel` whose draws fly their own sails."""
+    terms = model.draw
+
+    def array(values: Any) -> jax.Array:
+        return jnp.asarray(values, dtype=dtype)
+
+    nominal = drawn = None
+    if terms.widened is not None:
+        grid = terms.widened.log_scales
+        reach = grid[-1] if until_s is None else np.log(np.max(model.flights.beam_scale(
+            model.ratio, np.full(len(model.ratio), until_s))))
+        points = min(len(grid), int(np.searchsorted(grid, reach, side="right")) + 1)  # at least s = 1 and the next
+        drawn, entries = terms.grids(points)
+        nominal = tables.ScaleArrays(log_scales=array(grid[:points]), radiation=array(entries[0]),
+                                     inputs=array(entries[1]), push=array(entries[2]), log_top=array(grid[points - 1]))
+    return DrawArrays(
+        near_a=array(terms.near_a), near_inputs=array(terms.near_inputs), near_push=array(terms.near_push),
+        bias=array(terms.bias), inertia=array(terms.inertia), nominal_inertia=array(terms.nominal_inertia),
+        payload_offset=array(terms.payload_offset), nominal=nominal,
+        drawn_a=None if drawn is None else array(drawn[0]), drawn_inputs=None if drawn is None else array(drawn[1]),
+        drawn_push=None if drawn is None else array(drawn[2]), v1_widening=terms.v1_widening)
 
 
 class Coast:
@@ -136,6 +186,25 @@ class Coast:
         return (jnp.where(near, along.radiation, widened),
                 jnp.where(near, along.radiation_b, jnp.concatenate(columns, axis=1)))
 
+    def draw_in_spot(self, along: AlongFlight, d: jax.Array, scale: jax.Array, radiation: jax.Array,
+                     inputs: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """Draw ``d``'s own radiation part of ``A`` and ``B`` in the spot widened by ``scale``, from the nominal
+        sail's there (the uncertain plant's ``draw_radiation``): its differences from the nominal sail in
+        that spot, or in the unwidened one (``v1_widening``, or a spot not widened)."""
+        terms = along.draw
+        delta_a, delta_inputs, delta_push = terms.near_a[d], terms.near_inputs[d], terms.near_push[d]
+        if terms.nominal is not None:
+            far = scale > 1.0
+            drawn = [tables.scale_blend(terms.nominal, table[d], scale)
+                     for table in (terms.drawn_a, terms.drawn_inputs, terms.drawn_push)]
+            nominal = [tables.scale_blend(terms.nominal, name, scale) for name in ("radiation", "inputs", "push")]
+            delta_a = jnp.where(far, drawn[0] - nominal[0], delta_a)
+            delta_inputs = jnp.where(far, drawn[1] - nominal[1], delta_inputs)
+            delta_push = jnp.where(far, drawn[2] / terms.inertia[d] - nominal[2] / terms.nominal_inertia, delta_push)
+        offsets = (along.radiation_b if terms.v1_widening else inputs)[:, :2]
+        return with_draw_terms(radiation, inputs, delta_a, delta_inputs, delta_push, terms.bias[d], offsets,
+                               terms.payload_offset, xp=jnp)
+
     def piece_model(self, along: AlongFlight, d: jax.Array, t: jax.Array) -> tuple[jax.Array, jax.Array]:
         """``(A, B)`` of draw ``d`` at flight time ``t`` (the plant's ``_coast_params``): the window's model
         with the radiation terms scaled by the power factor at ``t`` over the window's, or, where the
@@ -150,6 +219,8 @@ class Coast:
         scale = tables.beam_scale(along.flights, along.ratio[d], t)
         rows = along.rows[d] * power
         radiation, inputs = self.radiation_in_spot(along, scale)
+        if along.draw is not None:
+            radiation, inputs = self.draw_in_spot(along, d, scale, radiation, inputs)
         widened = scale != along.window_scale[d]
         return (jnp.where(widened, along.kinematics + rows[:, None] * radiation, a),
                 jnp.where(widened, rows[:, None] * inputs, b))

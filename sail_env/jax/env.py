@@ -9,8 +9,8 @@ the constant drive (a payload off the axis), the divergence rule, the envelope, 
 termination, the (delayed, noisy) observation, the commands still in flight after the window, and the
 coast and scoring at cut-off. Every function works on one environment; ``jax.vmap`` batches them (over
 states, and over params for per-environment tasks). The logic is the linear plant's, whatever the sail
-model: the planar tasks, ``LightSail3D-v0`` and the realistic 3D tasks (:data:`~sail_env.tasks.JAX_TASKS`);
-:func:`bank_of` refuses, by name, what it does not carry yet (the uncertain tasks' draws, power control).
+model: the planar tasks, ``LightSail3D-v0``, the realistic 3D tasks and the uncertain ones (:data:`~sail_env.tasks.JAX_TASKS`);
+:func:`bank_of` refuses, by name, what it does not carry yet (power control).
 
 **Randomness.** The public ``reset``/``step`` draw from their keys: at reset the parameter draw,
 the cut-off time, the launch state and the pre-control noise (:class:`EpisodeStart`); at each step
@@ -191,8 +191,8 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
     unsupported = [name for name, on in (("power control", "beam_power" in plant.input_names),
                                          ("a coast along the flight without noise",
                                           plant.time_varying and not plant.noisy),
-                                         ("a coast along the flight the plant does not hand over (its flight_model: "
-                                          "the uncertain tasks' draws)", plant.time_varying and not along_flight),
+                                         ("a coast along the flight the plant does not hand over (its flight_model)",
+                                          plant.time_varying and not along_flight),
                                          ("light delay without noise", spec.light_delay and not plant.noisy),
                                          ("cutoff_jitter_s without noise", dist.cutoff_jitter_s and not plant.noisy),
                                          ("parameter_spread without noise", dist.parameter_spread and not plant.noisy))
@@ -216,9 +216,11 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
     pre_propagator, coast_generator = np.zeros((k, h, h)), np.zeros((k, h, 0))
     if plant.time_varying:  # piece by piece along the flight (sail_env.jax.along)
         model = plant.flight_model(p)
-        along = along_of(model, dtype)
+        latest = cutoff + dist.cutoff_jitter_s
+        along = along_of(model, dtype, latest)
         pieces = int(plant.coast_pieces(p, longest).max())
-        _check_along_squarings(plant, spec, model, along_of(model, jnp.float64), float((longest / pieces).max()))
+        _check_along_squarings(plant, spec, model, along_of(model, jnp.float64, latest),
+                               float((longest / pieces).max()))
         pre_pieces = int(plant.coast_pieces(p, pre_control).max())
     elif plant.noisy:
         # The longest coast must be one piece, as the JAX coast of a fixed model is.

@@ -23,15 +23,21 @@ from sail_env.tasks import RIGID3D_TASKS  # noqa: E402
 DRAWS = 6
 
 
-@pytest.fixture(scope="module")
-def task():
-    """v1's plant and the models of six draws of its spread, the fastest among them (its spot widens
-    from ~585 s), with random commands."""
-    spec = rigid3d_spec(**RIGID3D_TASKS["LightSail3DRealistic-v1"])
+#: The fastest draw of each task: the lightest sail under the strongest beam (and, uncertain, the most power
+#: reaching it, the nominal dish, the largest beam offsets): its spot widens from ~585 s (uncertain: ~510 s).
+FASTEST = {"LightSail3DRealistic-v1": [0.9, 1.0, 1.1], "LightSailUncertain-v1": [0.9, 1.0, 1.1, 1.0, 1.0, 1.2, 2.0, 0.0],
+           "LightSailUncertain-v2": [0.9, 1.0, 1.1, 1.0, 1.0, 1.2, 2.0, 0.0]}
+
+
+@pytest.fixture(scope="module", params=list(FASTEST))
+def task(request):
+    """A realistic 3D task's plant and the models of six draws (the uncertain tasks': each its own sail), the
+    fastest among them, with random commands."""
+    spec = rigid3d_spec(**RIGID3D_TASKS[request.param])
     plant = spec.plant
     rng = np.random.default_rng(0)
     factors = plant.factors(rng.random((DRAWS, plant.n_draws)))
-    factors[0] = [0.9, 1.0, 1.1]  # the lightest sail under the strongest beam: the fastest draw
+    factors[0] = FASTEST[request.param]
     p = plant.params(factors)
     u = rng.uniform(-1, 1, (DRAWS, plant.n_inputs)) * spec.action_scale
     return spec, plant, p, u, along_of(plant.flight_model(p), jnp.float64), Coast(plant, plant.flight_model(p))

@@ -117,7 +117,7 @@ def test_tasks_the_backend_does_not_carry_are_refused() -> None:
     with pytest.raises(ValueError, match="draws must be >= 1"):
         sail_env.jax.make("LightSailRealistic-v0", draws=0)
     with pytest.raises(ValueError, match="a coast along the flight the plant does not hand over"):
-        sail_env.jax.make("LightSailUncertain-v2")
+        sail_env.jax.make("LightSail3D-v0", dust_density_m3=1e-3, dust_grain_mass_kg=2e-27)  # dust, no flight table
     with pytest.raises(ValueError, match="power control"):
         sail_env.jax.make("LightSail3D-v0", power_control=True)
     with pytest.raises(ValueError, match="no task 'CartPole-v1'"):

@@ -37,8 +37,10 @@ ENVS, STEPS = 256, 1000
 #: 1.4e-8, pointing 7.2e-8; the Numba core's own v1 episodes differ by 4e-8 between two OpenBLAS kernels
 #: (docs/physics.md §3).
 ALONG_TOLERANCE = 1e-6
-#: The realistic 3D tasks' coast costs ~50 ms an episode on each backend: fewer, still every feature.
-SIZES = {"LightSail3DRealistic-v0": (48, 500), "LightSail3DRealistic-v1": (48, 500)}
+#: The realistic 3D tasks' coast costs ~50 ms an episode on each backend: fewer, still every feature (the
+#: uncertain tasks' versions differ only in how a draw is made and how its sail widens: fewer still).
+SIZES = {"LightSail3DRealistic-v0": (48, 500), "LightSail3DRealistic-v1": (48, 500),
+         "LightSailUncertain-v1": (16, 500), "LightSailUncertain-v2": (48, 500)}
 EXACT = "--xla_cpu_max_isa=AVX" in os.environ.get("XLA_FLAGS", "")
 
 
@@ -128,7 +130,8 @@ class SameDraws:
         return StepNoise(*(jnp.asarray(np.array(column)) for column in zip(*rows)))
 
 
-@pytest.mark.parametrize("env_id", JAX_TASKS)
+#: ``LightSailUncertain-v0`` is v1 but for the factors the NumPy plant draws, which both backends take from it.
+@pytest.mark.parametrize("env_id", [task for task in JAX_TASKS if task != "LightSailUncertain-v0"])
 def test_the_same_draws_play_the_same_episodes(env_id: str) -> None:
     env, _ = sail_env.jax.make(env_id, draws=1)
     spec = env.spec

@@ -155,6 +155,9 @@ class FlightModel:
     window_power: np.ndarray  # (K,) the Doppler power factor at the window's middle
     window_scale: np.ndarray  # (K,) the spot's scale there
     growth: np.ndarray  # (K,) the draw's growth rate [1/s]
+    #: Each draw's own sail terms where the sail itself is drawn (the uncertain tasks' ``DrawTerms``,
+    #: :mod:`~sail_env.physics.rigid3d.uncertainty`); None: every draw flies the nominal sail's.
+    draw: Any = None
 
     def payload_column(self, radiation: Any, push: Any, xp: Any = np) -> Any:
         """:func:`payload_term` of a spot's radiation part of ``A`` and its push, in the array module ``xp``."""

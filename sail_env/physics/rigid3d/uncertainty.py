@@ -44,13 +44,15 @@ import dataclasses
 import math
 import warnings
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from sail_env.physics.checks import boolean, real_number
 from sail_env.physics.disturbance import Disturbance
 from sail_env.physics.memo import built_once
-from sail_env.physics.rigid3d.plant import OMEGA_Y, SPREAD_FIELDS, X, RigidParams, RigidTaskConfig, RigidPlant
+from sail_env.physics.rigid3d.plant import (OMEGA_Y, SPREAD_FIELDS, X, FlightModel, RigidParams, RigidTaskConfig,
+                                             RigidPlant)
 from sail_env.physics.rigid3d.body import RigidSail
 from sail_env.physics.rigid3d.config import RigidSailConfig
 from sail_env.physics.rigid3d.damping import damped_linearisation
@@ -225,7 +227,7 @@ class WidenedCurvatureTable:
     def __init__(self, sail: RigidSailConfig, spin: float, curvature: float, top: float) -> None:
         r0 = sail.curvature_radius_m
         self.radii = r0 * np.linspace(1 - curvature, 1 + curvature, CURVATURE_NODES) if curvature else np.array([r0])
-        self.top = top
+        self.sail, self.top = sail, top
         self.log_scales, _ = scale_grid(sail, top)
         weight = np.exp(2.0 * self.log_scales)
         values = [[self._linearise(sail.replace(curvature_radius_m=float(r), absorptivity=a, reflectivity=1.0 - a),
@@ -248,15 +250,21 @@ class WidenedCurvatureTable:
                 weight[:, None, None] * np.stack([part[1] for part in parts]),
                 weight * np.array([lin.push_n for lin in lins]))
 
+    def values(self, radius: np.ndarray) -> list[np.ndarray]:
+        """The table's entries at radii (k,): ``s²`` times the radiation part of ``A`` (k, 2, G, 8, 8), of
+        ``B`` (k, 2, G, 8, 4) and the push (k, 2, G), the second axis ``X₀`` and ``X₁`` (``X = X₀ + α X₁``)."""
+        radius = np.asarray(radius, float)
+        return [np.repeat(part, len(radius), axis=0) if isinstance(part, np.ndarray) else part(radius)
+                for part in self._parts]
+
     def at(self, radius: np.ndarray, absorptivity: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, ...]:
         """``(A_rad (k, 8, 8), B (k, 8, 4), push (k,))`` of sails with radii, absorptivities and spot
         scales (k,) (up to ``s = 1``: the unwidened spot's)."""
-        radius, absorptivity = np.asarray(radius, float), np.asarray(absorptivity, float)
+        absorptivity = np.asarray(absorptivity, float)
         index, upper, mix, inverse = blend_weights(self.log_scales, self.top, scale)
-        rows = np.arange(len(radius))
+        rows = np.arange(len(absorptivity))
         out = []
-        for part in self._parts:
-            values = np.repeat(part, len(radius), axis=0) if isinstance(part, np.ndarray) else part(radius)
+        for values in self.values(radius):
             trailing = (slice(None),) + (None,) * (values.ndim - 3)
             alpha = absorptivity[trailing]
             below = values[rows, 0, index] + alpha * values[rows, 1, index]
@@ -331,11 +339,6 @@ class UncertainPlant(RigidPlant):
     def params(self, factors: np.ndarray):
         return self._shared if self._shared is not None else self._build(factors, shared=False)
 
-    def flight_model(self, p: RigidParams) -> None:
-        """None: each draw's own radiation terms along the flight (:meth:`draw_radiation`) are not handed
-        over as arrays yet, so the JAX backend refuses the uncertain tasks by name."""
-        return None
-
     def _sail_terms(self, factors: np.ndarray) -> tuple[np.ndarray, ...]:
         sail = self.config.sail
         return self.table.at(sail.curvature_radius_m * factors[:, 3], sail.absorptivity * factors[:, 4])
@@ -351,36 +354,115 @@ class UncertainPlant(RigidPlant):
     def draw_radiation(self, factors: np.ndarray, ratio: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The nominal sail's terms in the spot at ``t`` plus the draw's difference from them in that
         spot (:class:`WidenedCurvatureTable`; with ``v1_widening``, or where the spot has not widened, the
-        difference at ``s = 1``), with the draw's payload torque and beam offset in the constant column.
-        Each row's numbers are its own, whatever the other rows' spots (a batch plays the single episodes)."""
+        difference at ``s = 1``), with the draw's payload torque and beam offset in the constant column
+        (:func:`with_draw_terms`). Each row's numbers are its own, whatever the other rows' spots (a batch
+        plays the single episodes)."""
         base_a, base_b = self._radiation(ratio, t)
-        radiation, b, push, inertia = self._sail_terms(factors)
-        nominal_a, nominal_b, nominal_push, nominal_inertia = (q[0] for q in self._nominal_terms)
-        delta_a, delta_inputs = radiation - nominal_a, b - nominal_b
-        delta_push = push / inertia - nominal_push / nominal_inertia
+        delta_a, delta_inputs, delta_push = self._near_differences(factors)
         if self.widened is not None:
             scale = self.flights.beam_scale(ratio, t) * np.ones(len(factors))
             far = scale > 1.0
             if np.any(far):
                 sail, k = self.config.sail, len(factors)
+                inertia = self._sail_terms(factors)[3]
                 drawn = self.widened.at(sail.curvature_radius_m * factors[:, 3], sail.absorptivity * factors[:, 4],
                                         scale)
                 nominal = self.widened.at(np.full(k, sail.curvature_radius_m), np.full(k, sail.absorptivity), scale)
                 delta_a = np.where(far[:, None, None], drawn[0] - nominal[0], delta_a)
                 delta_inputs = np.where(far[:, None, None], drawn[1] - nominal[1], delta_inputs)
-                delta_push = np.where(far, drawn[2] / inertia - nominal[2] / nominal_inertia, delta_push)
-        lin = self.linearisation
-        delta_b = np.zeros((len(factors),) + self.radiation_b.shape)
-        delta_b[:, :, :4] = delta_inputs
-        # The payload's constant term (plant3d.payload_term) of the draw's sail, minus the nominal's.
-        offset = self.config.payload_offset_m * self.config.sail.craft_mass_kg / lin.mass_kg
-        delta_b[:, :, -1] = -offset * delta_a[:, :, X]
-        delta_b[:, OMEGA_Y, -1] += offset * delta_push
-        # A constant beam offset acts through the draw's own offset columns of B in the spot (v1: the unwidened).
-        bias = (factors[:, 6:8] - 1.0) * self.uncertainty.pointing_bias_m
+                delta_push = np.where(far, drawn[2] / inertia - nominal[2] / self._nominal_terms[3][0], delta_push)
         offsets = (self.radiation_b[None] if self.uncertainty.v1_widening else base_b)[:, :, :2]
-        delta_b[:, :, -1] += np.einsum("kij,kj->ki", offsets + delta_b[:, :, :2], bias)
-        return base_a + delta_a, base_b + delta_b
+        return with_draw_terms(base_a, base_b, delta_a, delta_inputs, delta_push, self._bias(factors), offsets,
+                               self._payload_offset)
+
+    def _near_differences(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The draws' differences from the nominal sail in the unwidened spot: of the radiation part of
+        ``A`` (k, 8, 8), of ``B`` (k, 8, 4) and of the push over ``I_t`` (k,)."""
+        radiation, b, push, inertia = self._sail_terms(factors)
+        nominal_a, nominal_b, nominal_push, nominal_inertia = (q[0] for q in self._nominal_terms)
+        return radiation - nominal_a, b - nominal_b, push / inertia - nominal_push / nominal_inertia
+
+    def _bias(self, factors: np.ndarray) -> np.ndarray:
+        """The draws' constant beam offsets at the sail [m] (k, 2)."""
+        return (factors[:, 6:8] - 1.0) * self.uncertainty.pointing_bias_m
+
+    @property
+    def _payload_offset(self) -> float:
+        """How far the payload moves the CoM off the axis [m] (:func:`~sail_env.physics.rigid3d.plant.payload_term`)."""
+        return self.config.payload_offset_m * self.config.sail.craft_mass_kg / self.linearisation.mass_kg
+
+    def flight_model(self, p: RigidParams) -> FlightModel | None:
+        """:meth:`RigidPlant.flight_model` with each draw's own sail terms (:class:`DrawTerms`)."""
+        model = super().flight_model(p)
+        if model is None:
+            return None
+        sail, factors = self.config.sail, p.factors * np.ones((len(model.ratio), 1))
+        delta_a, delta_inputs, delta_push = self._near_differences(factors)
+        terms = DrawTerms(near_a=delta_a, near_inputs=delta_inputs, near_push=delta_push, bias=self._bias(factors),
+                          inertia=self._sail_terms(factors)[3], nominal_inertia=float(self._nominal_terms[3][0]),
+                          payload_offset=self._payload_offset, v1_widening=self.uncertainty.v1_widening,
+                          widened=self.widened, radii=sail.curvature_radius_m * factors[:, 3],
+                          absorptivities=sail.absorptivity * factors[:, 4])
+        return dataclasses.replace(model, draw=terms)
+
+
+@dataclasses.dataclass(frozen=True)
+class DrawTerms:
+    """What a coast along the flight reads of each uncertain draw's own sail (K, ...): its differences
+    from the nominal sail in the unwidened spot, its beam offset and ``I_t``, and where the spot widens
+    (``widened``; None: ``v1_widening``, or a spot that never widens) the draw's radii and absorptivities
+    that :meth:`grids` reads the table at. :meth:`UncertainPlant.draw_radiation` with these arrays is
+    :func:`with_draw_terms`; the JAX backend's coast (``sail_env.jax.along``) is handed them."""
+
+    near_a: np.ndarray  # (K, 8, 8) the radiation part of A minus the nominal sail's, unwidened spot
+    near_inputs: np.ndarray  # (K, 8, 4) and of B
+    near_push: np.ndarray  # (K,) the push over I_t [1/(m s²)·m], minus the nominal sail's
+    bias: np.ndarray  # (K, 2) the constant beam offset at the sail [m]
+    inertia: np.ndarray  # (K,) the draw's I_t [kg m²]
+    nominal_inertia: float
+    payload_offset: float  # the CoM's distance from the axis [m] the payload makes
+    v1_widening: bool  # the unwidened difference and offset columns everywhere (ModelUncertainty.v1_widening)
+    widened: WidenedCurvatureTable | None
+    radii: np.ndarray  # (K,) the draw's radius of curvature [m]
+    absorptivities: np.ndarray  # (K,)
+
+    def grids(self, points: int, chunk: int = 256) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+        """The widened table's entries (``s²`` times the radiation part of ``A``, of ``B``, the push) on
+        its first ``points`` grid points: the draws' (K, points, ...) and the nominal sail's (points, ...),
+        each combined in ``α`` as :meth:`WidenedCurvatureTable.at` combines them (the same numbers it
+        blends). Built ``chunk`` draws at a time: the whole grid of 4,096 draws would be 165 MB."""
+        table, config = self.widened, self.widened.sail
+        radii = np.append(self.radii, config.curvature_radius_m)
+        alphas = np.append(self.absorptivities, config.absorptivity)
+        out: list[list[np.ndarray]] = [[], [], []]
+        for start in range(0, len(radii), chunk):
+            rows = slice(start, start + chunk)
+            for q, values in enumerate(table.values(radii[rows])):
+                alpha = alphas[rows].reshape((-1,) + (1,) * (values.ndim - 3))
+                out[q].append(values[:, 0, :points] + alpha[:, None] * values[:, 1, :points])
+        stacked = [np.concatenate(q) for q in out]
+        return tuple(q[:-1] for q in stacked), tuple(q[-1] for q in stacked)
+
+
+def with_draw_terms(base_a: Any, base_b: Any, delta_a: Any, delta_inputs: Any, delta_push: Any, bias: Any,
+                    offsets: Any, payload_offset: float, xp: Any = np) -> tuple[Any, Any]:
+    """A draw's radiation part of ``A`` (..., 8, 8) and ``B`` (..., 8, c): the nominal sail's ``base_a``,
+    ``base_b`` in the spot plus the draw's differences ``delta_a``, ``delta_inputs`` (..., 8, 4) and
+    ``delta_push`` (the push over ``I_t``, (...)), the difference carried into the constant column: the
+    payload's term (:func:`~sail_env.physics.rigid3d.plant.payload_term`) of the differences and the beam
+    offset ``bias`` (..., 2) acting through the offset columns ``offsets`` (..., 8, 2) plus the draw's
+    difference of them. ``xp``: the array module (the JAX backend's coast calls it with ``jax.numpy``)."""
+    column = -payload_offset * delta_a[..., :, X]
+    torque = payload_offset * delta_push
+    if xp is np:
+        column[..., OMEGA_Y] += torque
+    else:
+        column = column.at[..., OMEGA_Y].add(torque)
+    column = column + xp.einsum("...ij,...j->...i", offsets + delta_inputs[..., :, :2], bias)
+    between = base_b.shape[-1] - delta_inputs.shape[-1] - 1  # inputs without a column (none on these tasks)
+    delta_b = xp.concatenate([delta_inputs, xp.zeros(delta_inputs.shape[:-1] + (between,), delta_inputs.dtype), column[..., None]],
+                             axis=-1)
+    return base_a + delta_a, base_b + delta_b
 
 
 def __getattr__(name: str) -> type:
