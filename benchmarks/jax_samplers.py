@@ -3,12 +3,13 @@
     python -m benchmarks.jax_samplers --env LightSail3DRealistic-v1 --agent lqg --episodes 4000 \
         --out benchmarks/results/jax_samplers.json
 
-JAX's keys cannot reproduce NumPy's streams, so the same agent (passive, LQR, LQG: the JAX policies are
-designed by the same code as the NumPy agents) plays ``--episodes`` fresh episodes on the Numba vector env
-and on the JAX backend, and the two success rates must agree within sampling error. Each environment's
-first episode counts. ``tests/jax/test_samplers.py`` runs this at 10⁴ episodes on the fast tasks; the
-realistic 3D tasks' coast costs ~50 ms an episode on a CPU core, so their comparison is kept here and run
-in the background (each result is added to ``--out`` as it comes).
+JAX's keys cannot reproduce NumPy's streams, so the same agent (passive, LQR, LQG and, on the 3D tasks,
+the adaptive banks ``lqg-mm`` and ``lqg-mm-offset``: the JAX policies are designed by the same code as the
+NumPy agents) plays ``--episodes`` fresh episodes on the Numba vector env and on the JAX backend, and the
+two success rates must agree within sampling error. Each environment's first episode counts.
+``tests/jax/test_samplers.py`` runs this at 10⁴ episodes on the fast tasks; the realistic 3D tasks' coast
+costs ~50 ms an episode on a CPU core, so their comparison is kept here and run in the background (each
+result is added to ``--out`` as it comes).
 """
 
 from __future__ import annotations
@@ -25,16 +26,15 @@ import jax.numpy as jnp
 import numpy as np
 
 import sail_env.jax
-from agents import LQGAgent, LQRAgent, PassiveAgent, cli
+from agents import cli
+from agents.evaluation import BASELINES
 from agents.jax_policies import POLICIES
-
-NUMPY_AGENTS = {"passive": PassiveAgent, "lqr": LQRAgent, "lqg": LQGAgent}
 
 
 def numba_success(env_id: str, agent_name: str, episodes: int) -> float:
     """The agent's success rate over the first episode of ``episodes`` Numba environments (seed 0)."""
     envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point")
-    agent = NUMPY_AGENTS[agent_name](envs.unwrapped.episode_spec)
+    agent = BASELINES[agent_name](envs.unwrapped.episode_spec)
     obs, _ = envs.reset(seed=0)
     success, ended = np.zeros(episodes, bool), np.zeros(episodes, bool)
     while not ended.all():
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = cli.Parser(prog="python -m benchmarks.jax_samplers", description=cli.describe(__doc__),
                         formatter_class=cli.HelpFormatter)
     parser.add_argument("--env", required=True, help="a task of sail_env.tasks.JAX_TASKS")
-    parser.add_argument("--agent", action="append", choices=sorted(NUMPY_AGENTS), required=True)
+    parser.add_argument("--agent", action="append", choices=sorted(POLICIES), required=True)
     parser.add_argument("--episodes", type=int, default=4000)
     parser.add_argument("--out", type=Path, help="add each result to this JSON file")
     try:
@@ -90,6 +90,12 @@ def main(argv: list[str] | None = None) -> int:
             raise cli.UsageError(f"--episodes must be >= 1, got {args.episodes}")
         if args.env not in sail_env.jax.JAX_TASKS:
             raise cli.UsageError(f"--env {args.env}: the JAX backend has {', '.join(sail_env.jax.JAX_TASKS)}")
+        spec = gym.make(args.env).unwrapped.episode_spec
+        for agent in args.agent:  # a design that refuses the task (the banks need a 3D sail) refuses here
+            try:
+                POLICIES[agent](spec)
+            except ValueError as err:
+                raise cli.UsageError(f"--agent {agent}: {err}") from None
     except cli.UsageError as err:
         return cli.fail(err)
     for agent in args.agent:

@@ -23,11 +23,10 @@ jax = pytest.importorskip("jax")
 import jax.numpy as jnp  # noqa: E402
 
 import sail_env  # noqa: F401, E402  (registers the env ids)
-from agents.adaptive import MultipleModelLQGAgent, OffsetFreeMultipleModelLQGAgent  # noqa: E402
+from agents.adaptive import MultipleModelLQGAgent  # noqa: E402
+from agents.evaluation import BASELINES  # noqa: E402
 from agents.jax_policies import POLICIES  # noqa: E402
-from agents.lqg import LQGAgent  # noqa: E402
 
-NUMPY_AGENTS = {"lqg": LQGAgent, "lqg-mm": MultipleModelLQGAgent, "lqg-mm-offset": OffsetFreeMultipleModelLQGAgent}
 #: Largest difference of a command [SI] from the NumPy agent's, in units of the action scale.
 TOLERANCE = 1e-9
 #: Their episodes switch each bank's chosen member 1 to 20 times.
@@ -40,7 +39,7 @@ CASES = [("LightSail3DRealistic-v1", "lqg"), ("LightSail3DRealistic-v1", "lqg-mm
 def _numpy_episode(env: gym.Env, agent_name: str, seed: int) -> dict[str, np.ndarray]:
     """One episode of the NumPy agent: the observations it saw, its float64 commands and float32 actions,
     and for a bank the member it chose, step by step."""
-    agent = NUMPY_AGENTS[agent_name](env.unwrapped.episode_spec)
+    agent = BASELINES[agent_name](env.unwrapped.episode_spec)
     sender = agent.bank[0] if isinstance(agent, MultipleModelLQGAgent) else agent  # holds the commands sent
     obs, _ = env.reset(seed=seed)
     record: dict[str, list] = {"obs": [], "command": [], "action": [], "choice": []}

@@ -13,7 +13,7 @@ import pytest
 jax = pytest.importorskip("jax")
 pytest.importorskip("gymnax")
 
-from benchmarks.jax_samplers import jax_success, numba_success, standard_error  # noqa: E402
+from benchmarks.jax_samplers import jax_success, main, numba_success, standard_error  # noqa: E402
 from sail_env.tasks import JAX_TASKS  # noqa: E402
 
 EPISODES = 10_000
@@ -38,3 +38,12 @@ def test_success_rates_agree_in_distribution(env_id: str, agent_name: str, episo
         assert 0.1 < numba < 0.8, numba  # the README's 60 % (LightSail-v0), 48.5 % (deep dish), 17.5 % (3D)
     else:
         assert numba == jax_rate == 1.0
+
+
+def test_the_cli_refuses_an_unknown_agent_and_a_bank_on_a_planar_task(capsys: pytest.CaptureFixture) -> None:
+    """Each on one line, before any episode runs: a name that is no JAX policy, and the adaptive bank on a
+    planar task (its design's refusal)."""
+    assert main(["--env", "LightSail3DRealistic-v1", "--agent", "lqg-mx", "--episodes", "1"]) == 2
+    assert main(["--env", "LightSail-v0", "--agent", "lqg-mm", "--episodes", "1"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert "invalid choice: 'lqg-mx'" in err[0] and err[1].startswith("error: --agent lqg-mm: lqg-mm needs a 3D task")
