@@ -67,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     train = jax.jit(jax.vmap(make_train(env, params, config)))
     out = jax.block_until_ready(train(jax.vmap(jax.random.key)(np.array(seeds))))
     wall = time.perf_counter() - start
-    evaluate = jax.jit(jax.vmap(lambda actor: success_rate(env, params, actor, jax.random.key(10**6), 1000)))
+    evaluate = jax.jit(jax.vmap(lambda actor: success_rate(env, params, config, actor, jax.random.key(10**6), 1000)))
     final = np.asarray(evaluate(out["network"]["actor"]))
     curve = np.asarray(out["metrics"]["success"])
     runs = []
@@ -75,7 +75,8 @@ def main(argv: list[str] | None = None) -> int:
         run_dir = new_run_dir(args.env, ALGO, seed, args.runs_dir)
         network = jax.tree.map(lambda a: np.asarray(a)[row], out["network"])
         save_policy(run_dir / POLICY_FILE, actor_arrays(network),
-                    {"env_id": args.env, "algo": ALGO, "seed": seed, "timesteps": config.num_updates * config.batch_size})
+                    {"env_id": args.env, "algo": ALGO, "seed": seed, "timesteps": config.num_updates * config.batch_size,
+                     "history": config.history, "recurrent": config.recurrent})
         record = {"env_id": args.env, "algo": ALGO, "seed": seed, "seeds_trained_together": len(seeds),
                   "config": dataclasses.asdict(config), "device": str(device.device_kind), "jax": jax.__version__,
                   "wall_s_with_compile": wall, "success_per_update": [None if np.isnan(v) else float(v) for v in curve[row]],

@@ -1,9 +1,27 @@
-"""PPO written for the JAX backend: the whole training loop is one jitted function of a key
-(rollout by ``lax.scan`` over ``vmap``-ed environments, GAE by a reverse scan, minibatch epochs
-with ``optax``), so ``vmap`` over keys trains many seeds at once (PureJaxRL's design; Lu et al.
-2022). The method is PPO with the clipped objective (Schulman et al. 2017) as CleanRL's
-continuous-action script runs it: separate tanh actor and critic networks, a state-independent
-log standard deviation, advantages normalised per minibatch, the learning rate annealed linearly.
+"""PPO written for the JAX backend: the training loop is jitted whole (rollout by ``lax.scan`` over
+``vmap``-ed environments, GAE by a reverse scan, minibatch epochs with ``optax``), so ``vmap`` over
+keys trains many seeds at once (PureJaxRL's design; Lu et al. 2022). The method is PPO with the
+clipped objective (Schulman et al. 2017) as CleanRL's continuous-action script runs it: separate tanh
+actor and critic networks, a state-independent log standard deviation, advantages normalised per
+minibatch, the learning rate annealed linearly.
+
+A task whose unknowns must be read from the observation stream needs a policy with memory; two kinds:
+
+- ``history = H``: actor and critic see the last H observations side by side (zeros before the
+  episode's first), a wrapper of the observation stream in the loop's carry (:class:`Memory`);
+- ``recurrent = R``: actor and critic each put a GRU of R units between their tanh layers and their
+  output, its state carried through the rollout and zeroed at each episode's start; the update
+  re-runs it over each environment's whole rollout from the state it began with, so its minibatches
+  are sets of environments (PureJaxRL's recurrent PPO does the same). Actor and critic keep separate
+  GRUs as they keep separate layers: the value loss then cannot pull the actor's memory towards
+  what predicts the return (separate networks did better in Andrychowicz et al. 2021's study of
+  on-policy choices), and the exported actor stands alone.
+
+Both may be combined; ``history = 1, recurrent = 0`` is the memoryless MLP.
+
+The loop runs in chunks of updates (:func:`make_chunks`), whose state (:class:`RunState`) is all a
+run needs to continue, so ``train_jax.py`` checkpoints between chunks; the annealing reads the
+optimiser's own step count, which that state carries.
 
 The trained actor is plain arrays (:func:`actor_arrays`): :class:`agents.mlp_policy.MlpPolicyAgent`
 plays it in NumPy, so ``evaluate.py`` reports it on the Gym envs beside the other agents.
@@ -19,6 +37,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
+
+#: The two networks, each with its own layers (and GRU).
+PARTS = ("actor", "critic")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,12 +61,22 @@ class PPOConfig:
     max_grad_norm: float = 0.5
     hidden: tuple[int, ...] = (64, 64)
     log_std_init: float = -1.0
+    history: int = 1  # observations the networks see, the newest last (1: the current one alone)
+    recurrent: int = 0  # units of each network's GRU (0: none)
 
     def __post_init__(self) -> None:
-        for name in ("total_timesteps", "num_envs", "num_steps", "update_epochs", "num_minibatches"):
+        for name in ("total_timesteps", "num_envs", "num_steps", "update_epochs", "num_minibatches", "history"):
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if not (isinstance(self.recurrent, int) and self.recurrent >= 0):
+            raise ValueError(f"recurrent must be an integer >= 0 (0: no GRU), got {self.recurrent!r}")
+        if not (isinstance(self.hidden, tuple) and self.hidden
+                and all(isinstance(size, int) and size >= 1 for size in self.hidden)):
+            raise ValueError(f"hidden must be a tuple of one or more layer sizes >= 1, got {self.hidden!r}")
+        if self.recurrent and self.num_envs % self.num_minibatches:
+            raise ValueError(f"num_envs ({self.num_envs}) must be a multiple of num_minibatches "
+                             f"({self.num_minibatches}): a recurrent policy's minibatches are sets of environments")
         if self.batch_size % self.num_minibatches:
             raise ValueError(f"num_envs * num_steps ({self.batch_size}) must be a multiple of num_minibatches "
                              f"({self.num_minibatches})")
@@ -58,6 +89,10 @@ class PPOConfig:
         for name in ("learning_rate", "max_grad_norm"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not self.ent_coef >= 0:
+            raise ValueError(f"ent_coef must be >= 0, got {self.ent_coef}")
+        if not np.isfinite(self.log_std_init):
+            raise ValueError(f"log_std_init must be a finite number, got {self.log_std_init}")
 
     @property
     def batch_size(self) -> int:
@@ -79,17 +114,93 @@ def _mlp_init(key: jax.Array, sizes: tuple[int, ...], last_scale: float) -> list
     return layers
 
 
-def _mlp(layers: list[dict[str, jax.Array]], x: jax.Array) -> jax.Array:
-    for layer in layers[:-1]:
-        x = jnp.tanh(x @ layer["w"] + layer["b"])
-    return x @ layers[-1]["w"] + layers[-1]["b"]
+def _gru_init(key: jax.Array, in_size: int, size: int) -> dict[str, jax.Array]:
+    """A GRU's weights, its three gates' (reset, update, candidate) side by side: orthogonal, each
+    gate's recurrent block on its own; zero biases."""
+    in_key, *gate_keys = jax.random.split(key, 4)
+    orthogonal = jax.nn.initializers.orthogonal()
+    return {"wx": orthogonal(in_key, (in_size, 3 * size), jnp.float32),
+            "wh": jnp.concatenate([orthogonal(k, (size, size), jnp.float32) for k in gate_keys], axis=1),
+            "bx": jnp.zeros(3 * size, jnp.float32), "bh": jnp.zeros(3 * size, jnp.float32)}
+
+
+def _gru(cell: dict[str, jax.Array], hidden: jax.Array, x: jax.Array) -> jax.Array:
+    """One GRU step (Cho et al. 2014, in the form where the reset gate scales the recurrent part of
+    the candidate, bias included)."""
+    reset_x, update_x, candidate_x = jnp.split(x @ cell["wx"] + cell["bx"], 3, axis=-1)
+    reset_h, update_h, candidate_h = jnp.split(hidden @ cell["wh"] + cell["bh"], 3, axis=-1)
+    reset = jax.nn.sigmoid(reset_x + reset_h)
+    update = jax.nn.sigmoid(update_x + update_h)
+    candidate = jnp.tanh(candidate_x + reset * candidate_h)
+    return (1.0 - update) * candidate + update * hidden
 
 
 def init_network(key: jax.Array, obs_size: int, action_size: int, config: PPOConfig) -> dict[str, Any]:
+    """Actor and critic for observations of ``obs_size`` entries (each sees ``config.history`` of them)."""
+    in_size = config.history * obs_size
+
+    def part(key: jax.Array, out_size: int, last_scale: float) -> dict[str, Any]:
+        if not config.recurrent:
+            return {"layers": _mlp_init(key, (in_size, *config.hidden, out_size), last_scale)}
+        body_key, gru_key, head_key = jax.random.split(key, 3)
+        body = _mlp_init(body_key, (in_size, *config.hidden), np.sqrt(2.0))
+        head = _mlp_init(head_key, (config.recurrent, out_size), last_scale)
+        return {"layers": body + head, "gru": _gru_init(gru_key, config.hidden[-1], config.recurrent)}
+
     actor_key, critic_key = jax.random.split(key)
-    return {"actor": _mlp_init(actor_key, (obs_size, *config.hidden, action_size), 0.01),
-            "critic": _mlp_init(critic_key, (obs_size, *config.hidden, 1), 1.0),
+    return {"actor": part(actor_key, action_size, 0.01), "critic": part(critic_key, 1, 1.0),
             "log_std": jnp.full(action_size, config.log_std_init, jnp.float32)}
+
+
+def apply(part: dict[str, Any], x: jax.Array, hidden: jax.Array | None,
+          start: jax.Array | None) -> tuple[jax.Array, jax.Array | None]:
+    """One step of the actor or the critic (``part``) on inputs ``x`` (…, in): its tanh layers, its GRU
+    if it has one (from ``hidden`` (…, R), zeroed where ``start`` (…): an episode's first input), its
+    linear output. Returns the output and the GRU's state after ``x`` (``hidden`` without a GRU)."""
+    layers = part["layers"]
+    for layer in layers[:-1]:
+        x = jnp.tanh(x @ layer["w"] + layer["b"])
+    if "gru" in part:
+        hidden = _gru(part["gru"], jnp.where(start[..., None], 0.0, hidden), x)
+        x = hidden
+    return x @ layers[-1]["w"] + layers[-1]["b"], hidden
+
+
+def _unroll(part: dict[str, Any], hidden: jax.Array | None, x: jax.Array, start: jax.Array) -> jax.Array:
+    """``part``'s outputs over a rollout's inputs ``x`` (T, n, in) with their ``start`` flags (T, n),
+    from the GRU's state before them (n, R); without a GRU, all at once, whatever ``x``'s shape."""
+    if "gru" not in part:
+        return apply(part, x, None, None)[0]
+
+    def step(hidden: jax.Array, inputs: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
+        out, hidden = apply(part, inputs[0], hidden, inputs[1])
+        return hidden, out
+
+    return jax.lax.scan(step, hidden, (x, start))[1]
+
+
+class Memory(NamedTuple):
+    """What the networks carry from one step to the next, per environment (leading axis N)."""
+
+    obs: jax.Array  # (N, history * D): the last observations, the newest last, zeros before the episode's first
+    start: jax.Array  # (N,): the newest observation is its episode's first
+    hidden: dict[str, jax.Array | None]  # per part, its GRU's state (N, R) before the newest observation
+
+    @classmethod
+    def first(cls, obs: jax.Array, config: PPOConfig) -> Memory:
+        """The memory of episodes that begin with ``obs`` (N, D)."""
+        count, size = obs.shape
+        zeros = jnp.zeros((count, config.recurrent), jnp.float32) if config.recurrent else None
+        hidden = {part: zeros for part in PARTS}
+        empty = cls(jnp.zeros((count, config.history * size), obs.dtype), jnp.ones(count, bool), hidden)
+        return empty.next(obs, empty.start, hidden)
+
+    def next(self, obs: jax.Array, start: jax.Array, hidden: dict[str, jax.Array | None]) -> Memory:
+        """After a step: ``obs`` (N, D) appended and the oldest dropped, all older ones zeroed where
+        ``start`` (the env reset there: its autoreset's first observation); ``hidden`` the GRUs'
+        states after the previous observation."""
+        kept = jnp.where(start[:, None], 0.0, self.obs)[:, obs.shape[-1]:]
+        return Memory(jnp.concatenate([kept, obs], axis=-1), start, hidden)
 
 
 def _log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array) -> jax.Array:
@@ -98,7 +209,8 @@ def _log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array) -> jax.Arr
 
 
 class Transition(NamedTuple):
-    obs: jax.Array
+    obs: jax.Array  # what the networks saw: the last ``history`` observations
+    start: jax.Array  # that step began an episode
     action: jax.Array
     log_prob: jax.Array
     value: jax.Array
@@ -107,10 +219,31 @@ class Transition(NamedTuple):
     success: jax.Array  # 1 where an episode ended with success, else 0
 
 
-def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict[str, Any]]:
-    """``train(key)``: a PPO run from scratch on ``env`` (a :class:`~sail_env.jax.env.SailEnv`,
-    stepped by its ``step_batch``); returns the final network and, per update, the success rate of the
-    episodes that ended in its rollout (NaN if none) and the mean reward."""
+class RunState(NamedTuple):
+    """Everything a run carries from one update to the next: what a checkpoint holds."""
+
+    network: dict[str, Any]
+    opt_state: Any
+    env_state: Any
+    memory: Memory
+    key: jax.Array
+    update: jax.Array  # updates done
+
+
+class Chunks(NamedTuple):
+    """A run in pieces: ``run(init(key), n)`` makes ``n`` updates; ``run(run(s, a)[0], b)`` is bit for bit
+    ``run(s, a + b)`` (CPU, tested). ``rollout(state)``: the state after one rollout, its transitions,
+    and the GRUs' states before it, from which the update re-runs them (the start of an update)."""
+
+    init: Callable[[jax.Array], RunState]
+    run: Callable[[RunState, int], tuple[RunState, dict[str, jax.Array]]]
+    rollout: Callable[[RunState], tuple[RunState, Transition, dict[str, jax.Array | None]]]
+
+
+def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
+    """A PPO run on ``env`` (a :class:`~sail_env.jax.env.SailEnv`, stepped by its ``step_batch``) in
+    chunks of updates. Each update's metrics: the success rate of the episodes that ended in its
+    rollout (NaN if none) and the mean reward."""
     action_size = env.action_space(env_params).shape[0]
     obs_size = env.observation_space(env_params).shape[0]
     minibatch = config.batch_size // config.num_minibatches
@@ -122,107 +255,142 @@ def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict
     optimizer = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
                             optax.adam(schedule if config.anneal_lr else config.learning_rate, eps=1e-5))
 
-    def train(key: jax.Array) -> dict[str, Any]:
+    def init(key: jax.Array) -> RunState:
         key, net_key, reset_key = jax.random.split(key, 3)
         network = init_network(net_key, obs_size, action_size, config)
-        opt_state = optimizer.init(network)
         obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(reset_key, config.num_envs), env_params)
+        return RunState(network, optimizer.init(network), env_state, Memory.first(obs, config), key,
+                        jnp.zeros((), jnp.int32))
 
-        def env_step(carry, _):
-            network, env_state, obs, key = carry
-            key, act_key, step_key = jax.random.split(key, 3)
-            mean = _mlp(network["actor"], obs)
-            action = mean + jnp.exp(network["log_std"]) * jax.random.normal(act_key, mean.shape)
-            value = _mlp(network["critic"], obs)[:, 0]
-            next_obs, env_state, reward, terminated, _, info = env.step_batch(
-                jax.random.split(step_key, config.num_envs), env_state, action, env_params)
-            transition = Transition(obs, action, _log_prob(mean, network["log_std"], action), value,
-                                    reward.astype(jnp.float32), terminated, terminated & info["is_success"])
-            return (network, env_state, next_obs, key), transition
+    def env_step(carry, _):
+        network, env_state, memory, key = carry
+        key, act_key, step_key = jax.random.split(key, 3)
+        mean, actor_hidden = apply(network["actor"], memory.obs, memory.hidden["actor"], memory.start)
+        action = mean + jnp.exp(network["log_std"]) * jax.random.normal(act_key, mean.shape)
+        value, critic_hidden = apply(network["critic"], memory.obs, memory.hidden["critic"], memory.start)
+        next_obs, env_state, reward, terminated, _, info = env.step_batch(
+            jax.random.split(step_key, config.num_envs), env_state, action, env_params)
+        transition = Transition(memory.obs, memory.start, action, _log_prob(mean, network["log_std"], action),
+                                value[:, 0], reward.astype(jnp.float32), terminated, terminated & info["is_success"])
+        memory = memory.next(next_obs, terminated, {"actor": actor_hidden, "critic": critic_hidden})
+        return (network, env_state, memory, key), transition
 
-        def gae(transitions: Transition, last_value: jax.Array) -> tuple[jax.Array, jax.Array]:
-            def back(carry, t: Transition):
-                advantage, next_value = carry
-                alive = 1.0 - t.done
-                delta = t.reward + config.gamma * next_value * alive - t.value
-                advantage = delta + config.gamma * config.gae_lambda * alive * advantage
-                return (advantage, t.value), advantage
+    def rollout(state: RunState) -> tuple[RunState, Transition, dict[str, jax.Array | None]]:
+        (_, env_state, memory, key), transitions = jax.lax.scan(
+            env_step, (state.network, state.env_state, state.memory, state.key), None, config.num_steps)
+        return state._replace(env_state=env_state, memory=memory, key=key), transitions, state.memory.hidden
 
-            _, advantages = jax.lax.scan(back, (jnp.zeros_like(last_value), last_value), transitions, reverse=True)
-            return advantages, advantages + transitions.value
+    def gae(transitions: Transition, last_value: jax.Array) -> tuple[jax.Array, jax.Array]:
+        def back(carry, t: Transition):
+            advantage, next_value = carry
+            alive = 1.0 - t.done
+            delta = t.reward + config.gamma * next_value * alive - t.value
+            advantage = delta + config.gamma * config.gae_lambda * alive * advantage
+            return (advantage, t.value), advantage
 
-        def loss(network, batch: Transition, advantages: jax.Array, targets: jax.Array) -> jax.Array:
-            mean = _mlp(network["actor"], batch.obs)
-            log_prob = _log_prob(mean, network["log_std"], batch.action)
-            value = _mlp(network["critic"], batch.obs)[:, 0]
-            ratio = jnp.exp(log_prob - batch.log_prob)
-            advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
-            policy_loss = -jnp.minimum(ratio * advantages,
-                                       jnp.clip(ratio, 1 - config.clip_coef, 1 + config.clip_coef) * advantages).mean()
-            value_loss = 0.5 * jnp.mean((value - targets) ** 2)
-            entropy = jnp.sum(network["log_std"] + 0.5 * jnp.log(2 * jnp.pi * jnp.e))
-            return policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
+        _, advantages = jax.lax.scan(back, (jnp.zeros_like(last_value), last_value), transitions, reverse=True)
+        return advantages, advantages + transitions.value
 
-        def update(carry, _):
-            network, opt_state, env_state, obs, key = carry
-            (network, env_state, obs, key), transitions = jax.lax.scan(
-                env_step, (network, env_state, obs, key), None, config.num_steps)
-            advantages, targets = gae(transitions, _mlp(network["critic"], obs)[:, 0])
+    def loss(network, hidden: dict[str, jax.Array | None], batch: Transition, advantages: jax.Array,
+             targets: jax.Array) -> jax.Array:
+        mean = _unroll(network["actor"], hidden["actor"], batch.obs, batch.start)
+        log_prob = _log_prob(mean, network["log_std"], batch.action)
+        value = _unroll(network["critic"], hidden["critic"], batch.obs, batch.start)[..., 0]
+        ratio = jnp.exp(log_prob - batch.log_prob)
+        advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+        policy_loss = -jnp.minimum(ratio * advantages,
+                                   jnp.clip(ratio, 1 - config.clip_coef, 1 + config.clip_coef) * advantages).mean()
+        value_loss = 0.5 * jnp.mean((value - targets) ** 2)
+        entropy = jnp.sum(network["log_std"] + 0.5 * jnp.log(2 * jnp.pi * jnp.e))
+        return policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
 
-            def epoch(carry, _):
-                network, opt_state, key = carry
-                key, perm_key = jax.random.split(key)
-                order = jax.random.permutation(perm_key, config.batch_size)
-                flat = jax.tree.map(lambda a: a.reshape((config.batch_size,) + a.shape[2:])[order],
-                                    (transitions, advantages, targets))
-                split = jax.tree.map(lambda a: a.reshape((config.num_minibatches, minibatch) + a.shape[1:]), flat)
+    def minibatches(key: jax.Array, hidden: dict[str, jax.Array | None], data: tuple) -> tuple:
+        """The rollout (``data``: arrays (T, N, …)) cut into ``num_minibatches`` along a new leading
+        axis, with the GRUs' states before it: shuffled steps for a memoryless policy; for a GRU, whole
+        sequences of shuffled environments, as its forward re-runs them."""
+        if not config.recurrent:
+            order = jax.random.permutation(key, config.batch_size)
+            flat = jax.tree.map(lambda a: a.reshape((config.batch_size,) + a.shape[2:])[order], data)
+            return hidden, *jax.tree.map(lambda a: a.reshape((config.num_minibatches, minibatch) + a.shape[1:]), flat)
+        order = jax.random.permutation(key, config.num_envs)
+        envs = config.num_envs // config.num_minibatches
+        split = jax.tree.map(lambda a: jnp.swapaxes(
+            a[:, order].reshape((config.num_steps, config.num_minibatches, envs) + a.shape[2:]), 0, 1), data)
+        return jax.tree.map(lambda h: h[order].reshape((config.num_minibatches, envs) + h.shape[1:]), hidden), *split
 
-                def minibatch_step(carry, data):
-                    network, opt_state = carry
-                    grads = jax.grad(loss)(network, *data)
-                    updates, opt_state = optimizer.update(grads, opt_state, network)
-                    return (optax.apply_updates(network, updates), opt_state), None
+    def update(state: RunState, _):
+        state, transitions, before = rollout(state)
+        memory = state.memory
+        last_value = apply(state.network["critic"], memory.obs, memory.hidden["critic"], memory.start)[0][:, 0]
+        advantages, targets = gae(transitions, last_value)
 
-                (network, opt_state), _ = jax.lax.scan(minibatch_step, (network, opt_state), split)
-                return (network, opt_state, key), None
+        def epoch(carry, _):
+            network, opt_state, key = carry
+            key, perm_key = jax.random.split(key)
 
-            (network, opt_state, key), _ = jax.lax.scan(epoch, (network, opt_state, key), None, config.update_epochs)
-            ended = transitions.done.sum()
-            metrics = {"success": jnp.where(ended > 0, transitions.success.sum() / jnp.maximum(ended, 1), jnp.nan),
-                       "reward": transitions.reward.mean()}
-            return (network, opt_state, env_state, obs, key), metrics
+            def minibatch_step(carry, data):
+                network, opt_state = carry
+                grads = jax.grad(loss)(network, *data)
+                updates, opt_state = optimizer.update(grads, opt_state, network)
+                return (optax.apply_updates(network, updates), opt_state), None
 
-        (network, *_), metrics = jax.lax.scan(update, (network, opt_state, env_state, obs, key), None,
-                                              config.num_updates)
-        return {"network": network, "metrics": metrics}
+            (network, opt_state), _ = jax.lax.scan(minibatch_step, (network, opt_state),
+                                                   minibatches(perm_key, before, (transitions, advantages, targets)))
+            return (network, opt_state, key), None
+
+        (network, opt_state, key), _ = jax.lax.scan(epoch, (state.network, state.opt_state, state.key), None,
+                                                    config.update_epochs)
+        ended = transitions.done.sum()
+        metrics = {"success": jnp.where(ended > 0, transitions.success.sum() / jnp.maximum(ended, 1), jnp.nan),
+                   "reward": transitions.reward.mean()}
+        return state._replace(network=network, opt_state=opt_state, key=key, update=state.update + 1), metrics
+
+    def run(state: RunState, updates: int) -> tuple[RunState, dict[str, jax.Array]]:
+        return jax.lax.scan(update, state, None, updates)
+
+    return Chunks(init, run, rollout)
+
+
+def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict[str, Any]]:
+    """``train(key)``: a whole PPO run from scratch in one piece (:func:`make_chunks`); returns the
+    final network and the metrics of each update."""
+    chunks = make_chunks(env, env_params, config)
+
+    def train(key: jax.Array) -> dict[str, Any]:
+        state, metrics = chunks.run(chunks.init(key), config.num_updates)
+        return {"network": state.network, "metrics": metrics}
 
     return train
 
 
 def actor_arrays(network: dict[str, Any]) -> dict[str, np.ndarray]:
-    """The actor as named NumPy arrays (``w0, b0, w1, b1, …``; the mean is the last layer's
-    output, as :class:`agents.mlp_policy.MlpPolicyAgent` computes it)."""
+    """The actor as named NumPy arrays (``w0, b0, w1, b1, …``, and ``gru_wx, gru_wh, gru_bx, gru_bh``
+    for a GRU, which sits before the last layer) as :class:`agents.mlp_policy.MlpPolicyAgent` reads them."""
     arrays = {}
-    for i, layer in enumerate(network["actor"]):
+    for i, layer in enumerate(network["actor"]["layers"]):
         arrays[f"w{i}"], arrays[f"b{i}"] = np.asarray(layer["w"]), np.asarray(layer["b"])
+    for name, value in network["actor"].get("gru", {}).items():
+        arrays[f"gru_{name}"] = np.asarray(value)
     return arrays
 
 
-
-def success_rate(env, env_params, actor: list[dict[str, jax.Array]], key: jax.Array, episodes: int) -> jax.Array:
+def success_rate(env, env_params, config: PPOConfig, actor: dict[str, Any], key: jax.Array,
+                 episodes: int) -> jax.Array:
     """The deterministic actor's success rate over ``episodes`` fresh episodes of the JAX env (each
     environment's first episode counts; its autoreset starts another, not counted)."""
     reset_key, steps_key = jax.random.split(key)
     obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(reset_key, episodes), env_params)
 
     def one(carry, key):
-        obs, state, success, ended = carry
-        action = jnp.clip(_mlp(actor, obs), -1.0, 1.0)
-        obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state, action, env_params)
+        memory, state, success, ended = carry
+        mean, hidden = apply(actor, memory.obs, memory.hidden["actor"], memory.start)
+        obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state,
+                                                            jnp.clip(mean, -1.0, 1.0), env_params)
         success = jnp.where(terminated & ~ended, info["is_success"], success)
-        return (obs, state, success, ended | terminated), None
+        memory = memory.next(obs, terminated, {**memory.hidden, "actor": hidden})
+        return (memory, state, success, ended | terminated), None
 
-    start = (obs, state, jnp.zeros(episodes, bool), jnp.zeros(episodes, bool))
+    start = (Memory.first(obs, config), state, jnp.zeros(episodes, bool), jnp.zeros(episodes, bool))
     keys = jax.random.split(steps_key, env_params.max_steps_in_episode)
     (_, _, success, _), _ = jax.lax.scan(one, start, keys)
     return success.mean()

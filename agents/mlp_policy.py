@@ -1,5 +1,6 @@
 """A trained tanh MLP policy played in NumPy: what ``train_jax.py`` saves (``policy.npz``), so that
-``evaluate.py`` reports the JAX learners on the Gym envs without importing JAX."""
+``evaluate.py`` reports the JAX learners on the Gym envs without importing JAX. The policy may have a
+memory (:mod:`agents.jax_ppo`'s ``history`` and ``recurrent``), kept here per episode."""
 
 from __future__ import annotations
 
@@ -10,35 +11,83 @@ import numpy as np
 
 #: The file a JAX run keeps its policy in, and the metadata key that names its task.
 POLICY_FILE = "policy.npz"
+#: The GRU's arrays in a policy file (``gru_<name>``), as :func:`agents.jax_ppo.actor_arrays` names them.
+GRU_ARRAYS = ("wx", "wh", "bx", "bh")
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 0.5 * (1.0 + np.tanh(0.5 * x))  # no overflow warning for large |x|
 
 
 class MlpPolicyAgent:
-    """The deterministic action of a saved actor: ``clip(mean(obs), -1, 1)`` with tanh hidden layers.
+    """The deterministic action of a saved actor: ``clip(mean(obs), -1, 1)`` with tanh hidden layers,
+    as :func:`agents.jax_ppo.apply` computes it: on the last ``history`` observations side by side
+    (zeros before the episode's first), and through a GRU before the last layer if the actor has one.
 
-    ``policy.npz`` holds ``w0, b0, …`` (float32) and ``meta`` (a JSON string with ``env_id``,
-    ``algo`` and ``obs_size``).
+    ``policy.npz`` holds ``w0, b0, …`` (float32), ``gru_wx, gru_wh, gru_bx, gru_bh`` for a GRU, and
+    ``meta`` (a JSON string with ``env_id``, ``algo``, ``history`` and ``recurrent``: the GRU's size, 0
+    for none; files saved before policies had a memory have neither, which reads as 1 and 0).
+
+    ``act`` takes one observation (D,) or a batch (N, D) of episodes; a policy with memory keeps it
+    per episode until :meth:`reset`.
     """
 
     def __init__(self, path: str | Path, name: str | None = None) -> None:
         with np.load(path, allow_pickle=False) as data:
+            self.meta = json.loads(str(data["meta"]))
             count = sum(1 for key in data.files if key.startswith("w"))
             self.layers = [(data[f"w{i}"].astype(np.float64), data[f"b{i}"].astype(np.float64)) for i in range(count)]
-            self.meta = json.loads(str(data["meta"]))
+            recurrent = self.meta.get("recurrent", 0)
+            self.gru = {key: data[f"gru_{key}"].astype(np.float64) for key in GRU_ARRAYS} if recurrent else None
+        self.history = int(self.meta.get("history", 1))
         self.name = name or f"{self.meta.get('algo', 'mlp')}"
-        self.obs_size = self.layers[0][0].shape[0]
+        self.obs_size = self.layers[0][0].shape[0] // self.history
+        self.reset()
+
+    @property
+    def has_memory(self) -> bool:
+        return self.history > 1 or self.gru is not None
+
+    def reset(self, which: np.ndarray | None = None) -> None:
+        """Start afresh: every episode, or only those where ``which`` (N,) is true (the episodes an
+        autoresetting batch has just begun)."""
+        if which is None:
+            self._stacked: np.ndarray | None = None  # (…, history * D): the last observations, the newest last
+            self._hidden: np.ndarray | None = None  # (…, R): the GRU's state after them
+            self._start: np.ndarray | None = None  # (…): the next observation is its episode's first
+        elif self._start is not None:
+            self._start[np.asarray(which, dtype=bool)] = True
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         x = np.asarray(observation, dtype=np.float64)
         if x.shape[-1] != self.obs_size:
             raise ValueError(f"{self.name}: the policy takes observations of size {self.obs_size} "
                              f"({self.meta.get('env_id')}), got {x.shape[-1]}")
+        batch = x.shape[:-1]
+        if self._start is None or self._start.shape != batch:
+            if self._start is not None and self.has_memory:
+                raise ValueError(f"{self.name}: its memory holds {self._start.shape} episodes, given {batch}: "
+                                 "reset() before a batch of another size")
+            self._stacked = np.zeros(batch + (self.history * self.obs_size,))
+            self._hidden = np.zeros(batch + (len(self.gru["wh"]),)) if self.gru is not None else None
+            self._start = np.ones(batch, dtype=bool)
+        fresh = self._start[..., None]
+        self._stacked = np.concatenate([np.where(fresh, 0.0, self._stacked)[..., self.obs_size:], x], axis=-1)
+        x = self._stacked
         for w, b in self.layers[:-1]:
             x = np.tanh(x @ w + b)
+        if self.gru is not None:
+            self._hidden = x = self._gru_step(np.where(fresh, 0.0, self._hidden), x)
+        self._start = np.zeros(batch, dtype=bool)
         w, b = self.layers[-1]
         return np.clip(x @ w + b, -1.0, 1.0).astype(np.float32)
 
-    def reset(self) -> None:
-        """Memoryless."""
+    def _gru_step(self, hidden: np.ndarray, x: np.ndarray) -> np.ndarray:
+        reset_x, update_x, candidate_x = np.split(x @ self.gru["wx"] + self.gru["bx"], 3, axis=-1)
+        reset_h, update_h, candidate_h = np.split(hidden @ self.gru["wh"] + self.gru["bh"], 3, axis=-1)
+        update = _sigmoid(update_x + update_h)
+        candidate = np.tanh(candidate_x + _sigmoid(reset_x + reset_h) * candidate_h)
+        return (1.0 - update) * candidate + update * hidden
 
 
 def save_policy(path: Path, arrays: dict[str, np.ndarray], meta: dict) -> None:

@@ -1,6 +1,7 @@
-"""The JAX PPO: a smoke run of two seeds in one ``vmap``, its export played in NumPy exactly as the
-JAX actor acts, and ``train_jax.py``'s refusals (the learning goal itself is measured by
-``train_jax.py``, not here: docs/learners.md)."""
+"""The JAX PPO: a smoke run of two seeds in one ``vmap`` (the memoryless default as the code before
+memory trained it), its export played in NumPy exactly as the JAX actor acts, the policies with memory
+(history, GRU: their rollouts, resets and NumPy players), and ``train_jax.py``'s refusals (the learning
+goal itself is measured by ``train_jax.py``, not here: docs/learners.md)."""
 
 from __future__ import annotations
 
@@ -19,10 +20,16 @@ pytest.importorskip("optax")
 import jax.numpy as jnp  # noqa: E402
 
 import sail_env.jax  # noqa: E402
-from agents.jax_ppo import PPOConfig, _mlp, actor_arrays, init_network, make_train  # noqa: E402
+from agents.jax_ppo import (Memory, PPOConfig, _log_prob, _unroll, actor_arrays, apply, init_network,  # noqa: E402
+                            make_chunks, make_train)
 from agents.mlp_policy import MlpPolicyAgent, save_policy  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
+OBS = 5  # LightSail-v0's observation size
+#: The smoke run below as the code before policies had a memory trained it (JAX 0.9.2, this file's
+#: XLA flags): per seed, the actor's first biases' sum of magnitudes and the final log std.
+BEFORE_MEMORY = {"b0": [0.3423852325, 0.303506364], "log_std": [[-1.0022090673, -0.9989134669],
+                                                                [-1.0009667873, -0.9891780019]]}
 
 
 def test_two_seeds_train_in_one_vmap_and_the_export_acts_as_the_actor(tmp_path: Path) -> None:
@@ -32,14 +39,114 @@ def test_two_seeds_train_in_one_vmap_and_the_export_acts_as_the_actor(tmp_path: 
     assert out["metrics"]["reward"].shape == (2, config.num_updates)
     assert bool(jnp.all(jnp.isfinite(out["metrics"]["reward"])))
     first, second = (jax.tree.map(lambda a: np.asarray(a)[row], out["network"]) for row in (0, 1))
-    assert not np.array_equal(first["actor"][0]["w"], second["actor"][0]["w"])  # the seeds differ
+    assert not np.array_equal(first["actor"]["layers"][0]["w"], second["actor"]["layers"][0]["w"])  # the seeds differ
+    # history = 1, recurrent = 0 train as before (bit for bit on this machine; the tolerance: other CPUs)
+    b0 = np.abs(np.asarray(out["network"]["actor"]["layers"][0]["b"], np.float64)).sum(axis=1)
+    np.testing.assert_allclose(b0, BEFORE_MEMORY["b0"], rtol=1e-5)
+    np.testing.assert_allclose(out["network"]["log_std"], BEFORE_MEMORY["log_std"], rtol=1e-5)
     save_policy(tmp_path / "policy.npz", actor_arrays(first), {"env_id": "LightSail-v0", "algo": "jax_ppo"})
-    agent = MlpPolicyAgent(tmp_path / "policy.npz")
+    agent = MlpPolicyAgent(tmp_path / "policy.npz")  # a file from before memory: no history, no recurrent
     obs = np.random.default_rng(1).normal(size=(50, 5)).astype(np.float32)
-    expected = np.clip(np.asarray(_mlp(first["actor"], jnp.asarray(obs))), -1, 1)
+    expected = np.clip(np.asarray(apply(first["actor"], jnp.asarray(obs), None, None)[0]), -1, 1)
     np.testing.assert_allclose(agent.act(obs), expected, rtol=1e-5, atol=1e-6)
     with pytest.raises(ValueError, match="observations of size 5"):
         agent.act(np.zeros(25))
+
+
+#: A smoke run with memory: each environment's rollout outlasts its first episode (200 steps at most).
+MEMORY_RUN = PPOConfig(total_timesteps=2 * 4 * 210, num_envs=4, num_steps=210, num_minibatches=2, update_epochs=1)
+
+
+def _rollout_and_training(config: PPOConfig):
+    """A run's two updates (network, metrics), then a third rollout: the state before it, its
+    transitions and the GRUs' states it began with."""
+    env, params = sail_env.jax.make("LightSail-v0")
+    chunks = make_chunks(env, params, config)
+
+    @jax.jit
+    def run(key: jax.Array):
+        trained, metrics = chunks.run(chunks.init(key), config.num_updates)
+        _, transitions, before = chunks.rollout(trained)
+        return trained, transitions, before, metrics
+
+    return run(jax.random.key(0))
+
+
+def _actions(actor: dict, config: PPOConfig, obs: jax.Array, start: jax.Array) -> np.ndarray:
+    """The JAX actor's deterministic actions along observations (T, N, D) whose episodes begin where
+    ``start`` (T, N) (all at t = 0), as the rollout carries its memory."""
+    def step(memory: Memory, inputs):
+        mean, hidden = apply(actor, memory.obs, memory.hidden["actor"], memory.start)
+        return memory.next(*inputs, {**memory.hidden, "actor": hidden}), mean
+
+    last, means = jax.lax.scan(step, Memory.first(obs[0], config), (obs[1:], start[1:]))
+    final = apply(actor, last.obs, last.hidden["actor"], last.start)[0]
+    return np.clip(np.concatenate([means, final[None]]), -1.0, 1.0)
+
+
+def _check_memory(tmp_path: Path, config: PPOConfig):
+    """What both kinds of memory must do; returns the run for the kind's own checks."""
+    state, rollout, before, metrics = _rollout_and_training(config)
+    network = state.network
+    assert bool(jnp.all(jnp.isfinite(metrics["reward"])))
+    # the rollout: an episode starts where the previous step ended one (the env's autoreset)
+    start, done = np.asarray(rollout.start), np.asarray(rollout.done)
+    assert np.array_equal(start[1:], done[:-1]) and done[:-1].any(axis=0).all()
+    # its observations: the last `history`, shifted along, zeros before an episode's first
+    seen = np.asarray(rollout.obs).reshape(config.num_steps, config.num_envs, config.history, OBS)
+    assert not seen[start][:, :-1].any()
+    np.testing.assert_array_equal(seen[1:, :, :-1][~start[1:]], seen[:-1, :, 1:][~start[1:]])
+    obs = seen[:, :, -1]
+    start = start.copy()
+    start[0] = True  # played from here below
+    # nothing before an episode's start reaches its actions
+    actor = jax.tree.map(jnp.asarray, network["actor"])
+    actions = _actions(actor, config, obs, start)
+    env = int(np.flatnonzero(start[1:].any(axis=0))[0])
+    boundary = 1 + int(np.flatnonzero(start[1:, env])[0])
+    noisy = obs.copy()
+    noisy[:boundary, env] += np.random.default_rng(0).normal(size=(boundary, OBS)).astype(np.float32)
+    changed = _actions(actor, config, noisy, start)
+    assert not np.array_equal(changed[boundary - 1, env], actions[boundary - 1, env])
+    np.testing.assert_array_equal(changed[boundary:], actions[boundary:])
+    # the NumPy player: the same actions, its memory reset by evaluate.py's reset(which)
+    save_policy(tmp_path / "policy.npz", actor_arrays(network),
+                {"env_id": "LightSail-v0", "algo": "jax_ppo", "history": config.history, "recurrent": config.recurrent})
+    agent = MlpPolicyAgent(tmp_path / "policy.npz")
+    played = []
+    for t in range(config.num_steps):
+        agent.reset(start[t])
+        played.append(agent.act(obs[t]))
+    np.testing.assert_allclose(np.array(played), actions, rtol=0, atol=1e-5)
+    agent.reset()
+    np.testing.assert_allclose(agent.act(obs[0, 0]), actions[0, 0], rtol=0, atol=1e-5)  # one observation (D,)
+    with pytest.raises(ValueError, match="reset"):
+        agent.act(obs[1])
+    return state, rollout, before
+
+
+def test_a_history_policy_sees_the_last_observations_of_its_episode(tmp_path: Path) -> None:
+    _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=3))
+
+
+def test_a_recurrent_policy_carries_its_gru_through_the_rollout_and_the_update(tmp_path: Path) -> None:
+    config = dataclasses.replace(MEMORY_RUN, recurrent=8, history=2)
+    state, rollout, hidden = _check_memory(tmp_path, config)
+    assert not np.asarray(rollout.start[0]).all()  # the rollout continues episodes: the GRUs' states before it count
+    # the update re-runs the GRU over each environment's sequence from the state before it, with the
+    # rollout's resets: the log-probabilities of the rollout's actions come back
+    network = state.network
+    mean = _unroll(network["actor"], hidden["actor"], rollout.obs, rollout.start)
+    np.testing.assert_allclose(_log_prob(mean, network["log_std"], rollout.action), rollout.log_prob, atol=1e-4)
+    value = _unroll(network["critic"], hidden["critic"], rollout.obs, rollout.start)[..., 0]
+    np.testing.assert_allclose(value, rollout.value, atol=1e-5)
+    # a GRU's reset: the state before an episode's first input is not read
+    actor = network["actor"]
+    x = jnp.ones((3, config.history * OBS))
+    fresh = apply(actor, x, jnp.zeros((3, 8)), jnp.ones(3, bool))
+    stale = apply(actor, x, jnp.full((3, 8), 0.5), jnp.array([True, True, False]))
+    np.testing.assert_array_equal(fresh[0][:2], stale[0][:2])
+    assert not np.array_equal(fresh[0][2], stale[0][2])
 
 
 def test_bad_settings_are_refused_naming_them() -> None:
