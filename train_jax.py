@@ -1,95 +1,305 @@
-"""Train PPO on the JAX backend, many seeds in one jitted run: ``python train_jax.py --env LightSail-v0 --seeds 16``.
+"""Train PPO on the JAX backend, many seeds in one jitted run, in chunks that are checkpointed:
 
-The whole loop (rollouts, GAE, minibatch epochs) is one compiled function of a key
-(:mod:`agents.jax_ppo`), ``vmap``-ed over the seeds. Each seed gets a run folder as ``train.py``'s,
-``runs/<env>-jax_ppo-<seed>`` (``_2``, ``_3``, … if taken; ``runs/latest`` then names the first
-seed's), holding ``policy.npz`` (the deterministic actor, which ``evaluate.py --agent
-runs/latest/policy.npz`` plays on the Gym env) and ``run.json`` (the settings, the device, the
-wall time with compilation, the success rate of each rollout's ended episodes, and the
-deterministic policy's success on 1,000 fresh episodes of the JAX env). Nothing is written
-before the run has finished; a refused argument is one line on stderr and exit 2.
+    python train_jax.py --env LightSail-v0 --seeds 16
+    python train_jax.py --env LightSail3DRealistic-v1 --seeds 4 -n 20000000 --recurrent 64 --checkpoint-every 50
+    python train_jax.py --resume runs/LightSail3DRealistic-v1-jax_ppo-0     # continue it after an interruption
+
+Each chunk of --checkpoint-every updates (rollouts, GAE, minibatch epochs) is one compiled function
+(agents.jax_ppo), vmap-ed over the seeds. Each seed gets a run folder as train.py's,
+runs/<env>-jax_ppo-<seed> (_2, _3, … if taken; runs/latest then names the first seed's), made when
+the run starts and holding:
+
+    run.json         the settings, the device, the wall time with compilation, the success rate of each
+                     rollout's ended episodes so far, "status": "running"; at the end "finished" and the
+                     deterministic policy's success on 1,000 fresh episodes of the JAX env
+    policy.npz       at the end: the deterministic actor, which evaluate.py --agent runs/latest/policy.npz
+                     plays on the Gym env (with its memory, if it has one: --history, --recurrent)
+    checkpoint.npz   in the first seed's folder, for all seeds: the whole training state after the last
+                     chunk (networks, optimiser, environments, memories, keys), what --resume reads
+
+Each file is replaced whole (written beside, renamed over): after every chunk the checkpoint, then each
+run.json. --resume DIR (any seed's folder of the run) continues the run from its checkpoint with its own
+settings to the networks an uninterrupted run ends with (bit for bit on a CPU); beside it only
+--checkpoint-every may be given (it applies). A finished run is not resumed, and no new run writes into
+an old folder. A refused argument is one line on stderr and exit 2, with nothing written.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import functools
 import json
 import sys
 import time
+import zipfile
 from pathlib import Path
+from typing import Any
 
 import jax
 import numpy as np
 
 import sail_env.jax
 from agents import cli
-from agents.jax_ppo import PPOConfig, actor_arrays, make_train, success_rate
-from agents.mlp_policy import POLICY_FILE, save_policy
+from agents.jax_ppo import PPOConfig, RunState, actor_arrays, make_chunks, success_rate
+from agents.mlp_policy import POLICY_FILE, save_policy, write_npz
 from agents.training import new_run_dir, point_latest
+from sail_env.jax.env import EnvParams, SailEnv
 from sail_env.tasks import JAX_TASKS
 
 ALGO = "jax_ppo"
+RUN_FILE = "run.json"
+CHECKPOINT_FILE = "checkpoint.npz"
+#: The fresh episodes of the JAX env that score each seed's deterministic policy at the end.
+EVAL_EPISODES = 1000
+#: Flags that ``--resume`` applies; every other one is the run's own.
+RESUME_APPLIES = ("resume", "checkpoint_every")
 
 
-def parse_args(argv: list[str] | None):
+def layer_sizes(text: str) -> tuple[int, ...]:
+    """An argparse type: hidden layer sizes, ``128,128``."""
+    try:
+        sizes = tuple(int(size) for size in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be layer sizes separated by commas, e.g. 128,128; "
+                                         f"got {text!r}") from None
+    if min(sizes) < 1:
+        raise argparse.ArgumentTypeError(f"layer sizes must be >= 1, got {text!r}")
+    return sizes
+
+
+def build_parser() -> cli.Parser:
+    """train_jax.py's command line; each flag of PPO is its :class:`PPOConfig` field (``dest``)."""
     defaults = {f.name: f.default for f in dataclasses.fields(PPOConfig)}
-    parser = cli.Parser(description=cli.describe(__doc__), formatter_class=cli.HelpFormatter)
+    parser = cli.Parser(prog="train_jax.py", description=cli.describe(__doc__), formatter_class=cli.HelpFormatter)
     parser.add_argument("--env", default="LightSail-v0", help="a task of the JAX backend (sail_env.tasks.JAX_TASKS)")
     parser.add_argument("--seeds", type=cli.positive_int, default=1, help="how many seeds, trained together")
     parser.add_argument("--first-seed", type=cli.non_negative_int, default=0, help="the first seed's number")
-    parser.add_argument("-n", "--timesteps", type=cli.positive_int, default=defaults["total_timesteps"],
-                        help="env steps per seed")
-    parser.add_argument("--num-envs", type=cli.positive_int, default=defaults["num_envs"])
+    parser.add_argument("-n", "--timesteps", dest="total_timesteps", type=cli.positive_int, metavar="STEPS",
+                        default=defaults["total_timesteps"], help="env steps per seed")
+    parser.add_argument("--num-envs", type=cli.positive_int, default=defaults["num_envs"],
+                        help="environments per seed, stepped together")
     parser.add_argument("--num-steps", type=cli.positive_int, default=defaults["num_steps"],
                         help="steps per environment per rollout")
-    parser.add_argument("--learning-rate", type=float, default=defaults["learning_rate"])
-    parser.add_argument("--runs-dir", type=Path, default=Path("runs"))
-    return parser.parse_args(argv)
+    parser.add_argument("--num-minibatches", type=cli.positive_int, default=defaults["num_minibatches"],
+                        help="per epoch (with --recurrent: sets of whole environments)")
+    parser.add_argument("--update-epochs", type=cli.positive_int, default=defaults["update_epochs"],
+                        help="passes over each rollout")
+    parser.add_argument("--learning-rate", type=float, default=defaults["learning_rate"], help="annealed linearly to 0")
+    parser.add_argument("--gamma", type=float, default=defaults["gamma"], help="discount")
+    parser.add_argument("--ent-coef", type=float, default=defaults["ent_coef"], help="weight of the entropy bonus")
+    parser.add_argument("--log-std-init", type=float, default=defaults["log_std_init"],
+                        help="the Gaussian policy's log standard deviation at the start")
+    parser.add_argument("--hidden", type=layer_sizes, default=defaults["hidden"], metavar="SIZES",
+                        help="tanh layer sizes of actor and critic, e.g. 128,128")
+    parser.add_argument("--history", type=cli.positive_int, default=defaults["history"],
+                        help="the networks see the last H observations (1: the current one)")
+    parser.add_argument("--recurrent", type=cli.non_negative_int, default=defaults["recurrent"],
+                        help="units of a GRU in actor and critic (0: none)")
+    parser.add_argument("--checkpoint-every", type=cli.positive_int, default=100, metavar="UPDATES",
+                        help="updates per compiled chunk, after each of which the run is checkpointed")
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where the run folders are made")
+    parser.add_argument("--resume", type=Path, metavar="RUN_DIR",
+                        help="continue the run in RUN_DIR (any seed's folder) from its checkpoint")
+    return parser
+
+
+@functools.cache
+def task(env_id: str) -> tuple[SailEnv, EnvParams]:
+    """The JAX env and params of a task, one pair per process: the compiled functions below are keyed
+    by the task's id, so a second run in the same process reuses them. Built eagerly even when first
+    asked for while one of them is traced (its arrays are then constants, not that trace's)."""
+    with jax.ensure_compile_time_eval():
+        return sail_env.jax.make(env_id)
+
+
+@functools.partial(jax.jit, static_argnames=("env_id", "config"))
+def init_states(keys: jax.Array, env_id: str, config: PPOConfig) -> RunState:
+    """The seeds' runs before their first update (one key each)."""
+    env, params = task(env_id)
+    return jax.vmap(make_chunks(env, params, config).init)(keys)
+
+
+@functools.partial(jax.jit, static_argnames=("env_id", "config", "updates"))
+def run_chunk(state: RunState, env_id: str, config: PPOConfig, updates: int) -> tuple[RunState, dict]:
+    """``updates`` more updates of every seed's run, and their metrics (seeds, updates)."""
+    env, params = task(env_id)
+    return jax.vmap(lambda one: make_chunks(env, params, config).run(one, updates))(state)
+
+
+@functools.partial(jax.jit, static_argnames=("env_id", "config"))
+def final_success(actor: dict, env_id: str, config: PPOConfig) -> jax.Array:
+    """Each seed's deterministic success on the same fresh episodes of the JAX env."""
+    env, params = task(env_id)
+    return jax.vmap(lambda one: success_rate(env, params, config, one, jax.random.key(10**6), EVAL_EPISODES))(actor)
+
+
+def seed_keys(seeds: list[int]) -> jax.Array:
+    return jax.vmap(jax.random.key)(np.array(seeds))
+
+
+def save_checkpoint(path: Path, state: RunState, progress: dict[str, Any]) -> None:
+    """The state (leading axis: the seeds; its leaves in ``jax.tree`` order, keys as their data) and the
+    run's ``progress`` (JSON), written whole."""
+    leaves = [jax.random.key_data(leaf) if jax.dtypes.issubdtype(leaf.dtype, jax.dtypes.prng_key) else leaf
+              for leaf in jax.tree.leaves(state)]
+    write_npz(path, {"progress": np.array(json.dumps(progress)),
+                     **{f"leaf{i}": np.asarray(leaf) for i, leaf in enumerate(leaves)}})
+
+
+def load_checkpoint(path: Path) -> tuple[RunState, dict[str, Any]]:
+    """A checkpoint's state and progress, the state's structure that of a fresh run of its settings
+    (``ValueError`` if the file does not fit it: another version of the code)."""
+    with np.load(path, allow_pickle=False) as data:
+        progress = json.loads(str(data["progress"]))
+        arrays = [data[f"leaf{i}"] for i in range(len(data.files) - 1)]
+    config = config_of(progress["config"])
+    template = jax.eval_shape(functools.partial(init_states, env_id=progress["env_id"], config=config),
+                              seed_keys(progress["seeds"]))
+    like, structure = jax.tree.flatten(template)
+    if len(arrays) != len(like):
+        raise ValueError(f"{path}: {len(arrays)} arrays, a run of its settings has {len(like)}")
+    leaves = []
+    for array, shape in zip(arrays, like):
+        leaf = jax.random.wrap_key_data(array) if jax.dtypes.issubdtype(shape.dtype, jax.dtypes.prng_key) else array
+        if leaf.shape != shape.shape or leaf.dtype != shape.dtype:
+            raise ValueError(f"{path}: an array of {leaf.dtype}{list(leaf.shape)} where a run of its settings has "
+                             f"{shape.dtype}{list(shape.shape)}")
+        leaves.append(jax.numpy.asarray(leaf))
+    return jax.tree.unflatten(structure, leaves), progress
+
+
+def write_runs(runs_dir: Path, progress: dict[str, Any], status: str, final: np.ndarray | None = None) -> None:
+    """Each seed's run.json: the run's ``progress`` with that seed's own entries."""
+    shared = {key: value for key, value in progress.items() if key not in ("seeds", "success_per_update")}
+    for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
+        record = {"seed": seed, "seeds_trained_together": len(progress["seeds"]), "status": status, **shared,
+                  "success_per_update": progress["success_per_update"][row]}
+        if final is not None:
+            record[f"final_success_jax_{EVAL_EPISODES}"] = float(final[row])
+        cli.write_whole(runs_dir / name / RUN_FILE, json.dumps(record, indent=1))
+
+
+def config_of(settings: dict[str, Any]) -> PPOConfig:
+    """The PPO settings among ``settings`` (parsed flags, or a run's stored ``config``)."""
+    values = {f.name: settings[f.name] for f in dataclasses.fields(PPOConfig) if f.name in settings}
+    return PPOConfig(**{**values, "hidden": tuple(values.get("hidden", PPOConfig.hidden))})
+
+
+def resume_point(run_dir: Path) -> Path:
+    """The checkpoint that continues the run in ``run_dir`` (:class:`cli.UsageError` if there is none)."""
+    try:
+        record = json.loads((run_dir / RUN_FILE).read_text())
+    except (OSError, ValueError) as err:
+        raise cli.UsageError(f"--resume {run_dir}: not a run folder of train_jax.py ({err})") from err
+    if record.get("algo") != ALGO:
+        raise cli.UsageError(f"--resume {run_dir}: not a run folder of train_jax.py (algo {record.get('algo')!r})")
+    if record.get("status") != "running":  # runs from before checkpoints were written at their end only
+        raise cli.UsageError(f"--resume {run_dir}: the run has finished; a new run starts without --resume")
+    checkpoint = run_dir.parent / record["runs"][0] / CHECKPOINT_FILE
+    if not checkpoint.is_file():
+        raise cli.UsageError(f"--resume {run_dir}: its checkpoint {checkpoint} is missing")
+    return checkpoint
+
+
+def flag_of(parser: cli.Parser, dest: str) -> str:
+    """The command-line flag that sets ``dest`` (``--timesteps`` for ``total_timesteps``)."""
+    return next(action.option_strings[-1] for action in parser._actions if action.dest == dest)
+
+
+def start_run(args: argparse.Namespace, config: PPOConfig, command: str,
+              device: str) -> tuple[RunState, dict[str, Any]]:
+    """A new run's folders, initial state and progress."""
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    runs = [new_run_dir(args.env, ALGO, seed, args.runs_dir).name for seed in seeds]
+    point_latest(args.runs_dir / runs[0])
+    print(f"{ALGO} on {args.env}: {config.num_updates * config.batch_size:,} steps x {len(seeds)} seeds "
+          f"({config.num_envs} envs) on {device}", flush=True)
+    progress = {"env_id": args.env, "algo": ALGO, "seeds": seeds, "runs": runs, "config": dataclasses.asdict(config),
+                "device": device, "jax": jax.__version__, "wall_s_with_compile": 0.0, "updates": 0,
+                "steps_per_update": config.batch_size, "success_per_update": [[] for _ in seeds],
+                "command": command, "resumed": []}
+    return init_states(seed_keys(seeds), args.env, config), progress
+
+
+def chunk_summary(success: np.ndarray) -> str:
+    """The success of the episodes that ended in a chunk's rollouts, averaged over its updates and seeds."""
+    seen = success[np.isfinite(success)]
+    return f"rollouts' success {seen.mean():.1%}" if seen.size else "no episode ended yet"
 
 
 def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    command = " ".join(["python", "train_jax.py", *(sys.argv[1:] if argv is None else argv)])
     try:
-        args = parse_args(argv)
-        if args.env not in JAX_TASKS:
-            raise cli.UsageError(f"--env {args.env}: the JAX backend has {', '.join(JAX_TASKS)}")
-        config = PPOConfig(total_timesteps=args.timesteps, num_envs=args.num_envs, num_steps=args.num_steps,
-                           learning_rate=args.learning_rate)
-        cli.check_writable_dir(args.runs_dir, "--runs-dir")
+        args = parser.parse_args(argv)
+        if args.resume is not None:
+            given = [name for name, value in vars(args).items()
+                     if name not in RESUME_APPLIES and value != parser.get_default(name)]
+            if given:
+                raise cli.UsageError("--resume continues the run with its own settings: "
+                                     f"drop {flag_of(parser, given[0])}")
+            checkpoint = resume_point(args.resume)
+            try:
+                state, progress = load_checkpoint(checkpoint)
+            except (OSError, ValueError, KeyError, zipfile.BadZipFile) as err:
+                raise cli.UsageError(f"--resume {args.resume}: cannot read {checkpoint} ({err})") from err
+            config, runs_dir = config_of(progress["config"]), checkpoint.parent.parent
+        else:
+            if args.env not in JAX_TASKS:
+                raise cli.UsageError(f"--env {args.env}: the JAX backend has {', '.join(JAX_TASKS)}")
+            config, runs_dir = config_of(vars(args)), args.runs_dir
+            cli.check_writable_dir(runs_dir, "--runs-dir")
     except (cli.UsageError, ValueError) as err:
         return cli.fail(err)
 
-    env, params = sail_env.jax.make(args.env)
-    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    device = jax.devices()[0]
-    print(f"{ALGO} on {args.env}: {config.num_updates * config.batch_size:,} steps x {len(seeds)} seeds "
-          f"({config.num_envs} envs) on {device.device_kind}", flush=True)
     start = time.perf_counter()
-    train = jax.jit(jax.vmap(make_train(env, params, config)))
-    out = jax.block_until_ready(train(jax.vmap(jax.random.key)(np.array(seeds))))
-    wall = time.perf_counter() - start
-    evaluate = jax.jit(jax.vmap(lambda actor: success_rate(env, params, config, actor, jax.random.key(10**6), 1000)))
-    final = np.asarray(evaluate(out["network"]["actor"]))
-    curve = np.asarray(out["metrics"]["success"])
-    runs = []
-    for row, seed in enumerate(seeds):
-        run_dir = new_run_dir(args.env, ALGO, seed, args.runs_dir)
-        network = jax.tree.map(lambda a: np.asarray(a)[row], out["network"])
-        save_policy(run_dir / POLICY_FILE, actor_arrays(network),
-                    {"env_id": args.env, "algo": ALGO, "seed": seed, "timesteps": config.num_updates * config.batch_size,
+    device = str(jax.devices()[0].device_kind)
+    if args.resume is None:
+        state, progress = start_run(args, config, command, device)
+    else:
+        print(f"{ALGO} on {progress['env_id']}: resuming {progress['runs'][0]} at update {progress['updates']} "
+              f"of {config.num_updates} on {device}", flush=True)
+        progress["resumed"].append({"command": command, "device": device, "at_update": progress["updates"]})
+    env_id, checkpoint = progress["env_id"], runs_dir / progress["runs"][0] / CHECKPOINT_FILE
+    wall_before, updates_before = progress["wall_s_with_compile"], progress["updates"]
+
+    def save(state: RunState) -> None:
+        progress["wall_s_with_compile"] = wall_before + time.perf_counter() - start
+        save_checkpoint(checkpoint, state, progress)
+        write_runs(runs_dir, progress, "running")
+
+    if progress["updates"] == 0:
+        save(state)  # an interruption during the first chunk resumes from here
+    try:
+        while progress["updates"] < config.num_updates:
+            updates = min(args.checkpoint_every, config.num_updates - progress["updates"])
+            state, metrics = run_chunk(state, env_id, config, updates)
+            success = np.asarray(metrics["success"])
+            for row, curve in enumerate(success):
+                progress["success_per_update"][row] += [None if np.isnan(v) else float(v) for v in curve]
+            progress["updates"] += updates
+            save(state)
+            print(f"update {progress['updates']} of {config.num_updates}: {chunk_summary(success)}", flush=True)
+    except KeyboardInterrupt:
+        print(f"interrupted: {progress['updates']} of {config.num_updates} updates checkpointed; continue with "
+              f"python train_jax.py --resume {runs_dir / progress['runs'][0]}", file=sys.stderr)
+        return 130
+
+    final = np.asarray(final_success(state.network["actor"], env_id, config))
+    for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
+        network = jax.tree.map(lambda a: np.asarray(a)[row], state.network)
+        save_policy(runs_dir / name / POLICY_FILE, actor_arrays(network),
+                    {"env_id": env_id, "algo": ALGO, "seed": seed, "timesteps": config.num_updates * config.batch_size,
                      "history": config.history, "recurrent": config.recurrent})
-        record = {"env_id": args.env, "algo": ALGO, "seed": seed, "seeds_trained_together": len(seeds),
-                  "config": dataclasses.asdict(config), "device": str(device.device_kind), "jax": jax.__version__,
-                  "wall_s_with_compile": wall, "success_per_update": [None if np.isnan(v) else float(v) for v in curve[row]],
-                  "steps_per_update": config.batch_size, "final_success_jax_1000": float(final[row]),
-                  "command": " ".join(["python", "train_jax.py", *(sys.argv[1:] if argv is None else argv)])}
-        temporary = run_dir / ".run.json.partial"
-        temporary.write_text(json.dumps(record, indent=1))
-        temporary.replace(run_dir / "run.json")
-        runs.append(run_dir)
-        print(f"seed {seed}: {float(final[row]):.1%} success on 1,000 JAX episodes -> {run_dir / POLICY_FILE}")
-    point_latest(runs[0])
-    print(f"finished: {len(seeds)} seeds in {wall:.1f} s with compilation "
-          f"({len(seeds) * config.num_updates * config.batch_size / wall:,.0f} env-steps/s)")
+        print(f"seed {seed}: {float(final[row]):.1%} success on {EVAL_EPISODES:,} JAX episodes -> "
+              f"{runs_dir / name / POLICY_FILE}")
+    progress["wall_s_with_compile"] = wall_before + time.perf_counter() - start
+    write_runs(runs_dir, progress, "finished", final)
+    session = time.perf_counter() - start
+    steps = len(progress["seeds"]) * (config.num_updates - updates_before) * config.batch_size
+    print(f"finished: {len(progress['seeds'])} seeds in {session:.1f} s with compilation this session "
+          f"({steps / session:,.0f} env-steps/s)")
     return 0
 
 

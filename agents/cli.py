@@ -155,14 +155,16 @@ def readme_around_section(readme: Path, name: str) -> tuple[str, str]:
     return head, rest.split(end, 1)[1]
 
 
-def write_whole(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` whole or not at all: into a file beside it, then renamed over it, so
-    that Ctrl-C or a full disk leaves the old file as it was (a README's hand-written text, a kept export)."""
-    temporary = tempfile.NamedTemporaryFile("w", encoding="utf-8", dir=path.parent, prefix=f".{path.name}.",
-                                            suffix=".tmp", delete=False)
+def write_whole(path: Path, content: str | bytes) -> None:
+    """Write ``content`` (text, or bytes as they are) to ``path`` whole or not at all: into a file beside
+    it, then renamed over it, so that Ctrl-C or a full disk leaves the old file as it was (a README's
+    hand-written text, a kept export, a training run's checkpoint)."""
+    temporary = tempfile.NamedTemporaryFile("wb" if isinstance(content, bytes) else "w",
+                                            encoding=None if isinstance(content, bytes) else "utf-8",
+                                            dir=path.parent, prefix=f".{path.name}.", suffix=".tmp", delete=False)
     try:
         with temporary:
-            temporary.write(text)
+            temporary.write(content)
         # The file keeps its permissions (a new one gets the umask's), not the temporary file's 0600.
         umask = os.umask(0)
         os.umask(umask)

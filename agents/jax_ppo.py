@@ -232,7 +232,7 @@ class RunState(NamedTuple):
 
 class Chunks(NamedTuple):
     """A run in pieces: ``run(init(key), n)`` makes ``n`` updates; ``run(run(s, a)[0], b)`` is bit for bit
-    ``run(s, a + b)`` (CPU, tested). ``rollout(state)``: the state after one rollout, its transitions,
+    ``run(s, a + b)`` (on a CPU: ``train_jax.py``'s resume test). ``rollout(state)``: the state after one rollout, its transitions,
     and the GRUs' states before it, from which the update re-runs them (the start of an update)."""
 
     init: Callable[[jax.Array], RunState]

@@ -4,10 +4,13 @@ memory (:mod:`agents.jax_ppo`'s ``history`` and ``recurrent``), kept here per ep
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
 import numpy as np
+
+from agents import cli
 
 #: The file a JAX run keeps its policy in, and the metadata key that names its task.
 POLICY_FILE = "policy.npz"
@@ -91,8 +94,12 @@ class MlpPolicyAgent:
 
 
 def save_policy(path: Path, arrays: dict[str, np.ndarray], meta: dict) -> None:
-    """Write ``arrays`` and ``meta`` to ``path`` whole or not at all (a temporary file, then a rename)."""
-    temporary = path.with_name(f".{path.name}.partial")
-    with open(temporary, "wb") as out:
-        np.savez(out, meta=np.array(json.dumps(meta)), **{k: v.astype(np.float32) for k, v in arrays.items()})
-    temporary.replace(path)
+    """Write ``arrays`` (as float32) and ``meta`` to ``path`` whole or not at all (:func:`agents.cli.write_whole`)."""
+    write_npz(path, {"meta": np.array(json.dumps(meta)), **{k: v.astype(np.float32) for k, v in arrays.items()}})
+
+
+def write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """``arrays`` as an ``.npz`` file at ``path``, written whole or not at all."""
+    content = io.BytesIO()
+    np.savez(content, **arrays)
+    cli.write_whole(path, content.getvalue())

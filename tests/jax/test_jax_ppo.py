@@ -157,13 +157,67 @@ def test_bad_settings_are_refused_naming_them() -> None:
     assert dataclasses.replace(PPOConfig(), total_timesteps=10**6).num_updates == 10**6 // 4096
 
 
-@pytest.mark.parametrize("argv, message", [(["--env", "LightSailUncertain-v2"], "JAX backend has"),
-                                           (["--seeds", "0"], "--seeds"), (["-n", "10"], "total_timesteps")])
-def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, argv: list[str], message: str) -> None:
-    done = subprocess.run([sys.executable, "train_jax.py", *argv, "--runs-dir", str(tmp_path / "runs")], cwd=ROOT,
-                          capture_output=True, text=True, timeout=120)
-    assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
+@pytest.mark.parametrize("argv, message", [
+    (["--env", "LightSailUncertain-v2"], "JAX backend has"), (["--seeds", "0"], "--seeds"),
+    (["-n", "10"], "total_timesteps"), (["--hidden", "64,x"], "--hidden"), (["--hidden", "64,0"], "--hidden"),
+    (["--gamma", "1.5"], "gamma"), (["--ent-coef", "-0.1"], "ent_coef"), (["--history", "0"], "--history"),
+    (["--recurrent", "8", "--num-envs", "6", "--num-minibatches", "4"], "num_envs (6) must be a multiple"),
+    (["--resume", "runs/x"], "drop --runs-dir")])
+def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                          argv: list[str], message: str) -> None:
+    import train_jax
+
+    assert train_jax.main([*argv, "--runs-dir", str(tmp_path / "runs")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
     assert not (tmp_path / "runs").exists()
+
+
+def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupted_one(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Interrupted during its second chunk of one update, then resumed: the networks, optimiser and
+    everything else the checkpoint holds are those of a run in one chunk of two updates, to the bit."""
+    import train_jax
+
+    argv = ["-n", "512", "--num-envs", "8", "--num-steps", "32", "--num-minibatches", "2", "--update-epochs", "1",
+            "--history", "2", "--recurrent", "4", "--seeds", "2"]
+    assert train_jax.main([*argv, "--checkpoint-every", "2", "--runs-dir", str(tmp_path / "whole")]) == 0
+    chunks, run_chunk = [], train_jax.run_chunk
+
+    def interrupted(*args, **kwargs):  # Ctrl-C during the second chunk
+        if chunks:
+            raise KeyboardInterrupt
+        chunks.append(args)
+        return run_chunk(*args, **kwargs)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(train_jax, "run_chunk", interrupted)
+        assert train_jax.main([*argv, "--checkpoint-every", "1", "--runs-dir", str(tmp_path / "parts")]) == 130
+    run = tmp_path / "parts" / "LightSail-v0-jax_ppo-1"  # any seed's folder
+    assert f"--resume {tmp_path / 'parts' / 'LightSail-v0-jax_ppo-0'}" in capsys.readouterr().err
+    record = json.loads((run / "run.json").read_text())
+    assert record["status"] == "running" and record["updates"] == 1 and len(record["success_per_update"]) == 1
+    assert not (run / "policy.npz").exists()
+    assert train_jax.main(["--resume", str(run), "--checkpoint-every", "1"]) == 0
+    for seed in (0, 1):
+        whole, parts = (tmp_path / kind / f"LightSail-v0-jax_ppo-{seed}" for kind in ("whole", "parts"))
+        for name in ("policy.npz", *(["checkpoint.npz"] if seed == 0 else [])):
+            with np.load(whole / name) as one, np.load(parts / name) as other:
+                assert one.files == other.files
+                for key in one.files:
+                    if key not in ("meta", "progress"):
+                        np.testing.assert_array_equal(one[key], other[key], err_msg=f"{name}: {key}")
+        one, other = (json.loads((folder / "run.json").read_text()) for folder in (whole, parts))
+        assert other["status"] == "finished" and other["resumed"][0]["at_update"] == 1
+        for key in ("success_per_update", "final_success_jax_1000", "updates", "config"):
+            assert one[key] == other[key], key
+    capsys.readouterr()
+    assert train_jax.main(["--resume", str(run)]) == 2
+    assert "has finished" in capsys.readouterr().err
+    assert train_jax.main(["--resume", str(run), "--seeds", "3"]) == 2
+    assert "drop --seeds" in capsys.readouterr().err
+    assert train_jax.main(["--resume", str(tmp_path)]) == 2
+    assert "not a run folder" in capsys.readouterr().err
 
 
 def test_evaluate_reports_a_jax_policy_beside_the_baselines(tmp_path: Path) -> None:
