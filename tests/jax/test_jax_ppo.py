@@ -221,17 +221,22 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
 
 
 def test_evaluate_reports_a_jax_policy_beside_the_baselines(tmp_path: Path) -> None:
-    """``evaluate.py --agent …/policy.npz`` plays the exported actor on the Gym env (no JAX there)."""
-    network = jax.tree.map(np.asarray, init_network(jax.random.key(0), 5, 2, PPOConfig()))
-    run = tmp_path / "runs" / "LightSail-v0-jax_ppo-0"
-    run.mkdir(parents=True)
-    save_policy(run / "policy.npz", actor_arrays(network), {"env_id": "LightSail-v0", "algo": "jax_ppo"})
+    """``evaluate.py --agent …/policy.npz`` plays the exported actor on the Gym env (no JAX there), a
+    memoryless one and one with both kinds of memory."""
+    runs = {}
+    for name, config in (("LightSail-v0-jax_ppo-0", PPOConfig()), ("memory", PPOConfig(history=2, recurrent=4))):
+        network = jax.tree.map(np.asarray, init_network(jax.random.key(0), 5, 2, config))
+        runs[name] = tmp_path / "runs" / name
+        runs[name].mkdir(parents=True)
+        save_policy(runs[name] / "policy.npz", actor_arrays(network),
+                    {"env_id": "LightSail-v0", "algo": "jax_ppo", "history": config.history, "recurrent": config.recurrent})
+    run = runs["LightSail-v0-jax_ppo-0"]
     done = subprocess.run([sys.executable, "evaluate.py", "--agent", "passive", "--agent", str(run / "policy.npz"),
-                           "--episodes", "4", "--out", str(tmp_path / "report")], cwd=ROOT, capture_output=True,
-                          text=True, timeout=300)
+                           "--agent", str(runs["memory"] / "policy.npz"), "--episodes", "4", "--out",
+                           str(tmp_path / "report")], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    report = json.loads((tmp_path / "report" / "report.json").read_text())
-    assert "LightSail-v0-jax_ppo-0" in json.dumps(report)
+    report = json.dumps(json.loads((tmp_path / "report" / "report.json").read_text()))
+    assert "LightSail-v0-jax_ppo-0" in report and '"memory"' in report
     refused = subprocess.run([sys.executable, "evaluate.py", "--env", "LightSailRealistic-v0", "--agent",
                               str(run / "policy.npz"), "--episodes", "1", "--out", str(tmp_path / "other")], cwd=ROOT,
                              capture_output=True, text=True, timeout=300)
