@@ -35,10 +35,10 @@ from agents import cli
 from sail_env.provenance import machine
 
 SUBJECTS = ("LightSail-v0", "LightSailDeepDish-v0", "LightSailRealistic-v0", "LightSail3D-v0")
-#: The realistic 3D task, whose coast follows the flight (~50 ms of CPU an episode on either backend): on
-#: a CPU only against the Numba vector env at N = 1,024 (``--along``), without the ``vmap(step)`` column,
-#: which would coast every environment at every step.
-ALONG_SUBJECTS = ("LightSail3DRealistic-v1",)
+#: The realistic 3D task and the uncertain one, whose coasts follow the flight (~50 ms of CPU an episode on
+#: either backend): on a CPU only against the Numba vector env at N = 1,024 (``--along``), without the
+#: ``vmap(step)`` column, which would coast every environment at every step.
+ALONG_SUBJECTS = ("LightSail3DRealistic-v1", "LightSailUncertain-v2")
 #: Environments of the comparison with the Numba vector env.
 NUMBA_ENVS = 1024
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
