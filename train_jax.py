@@ -10,15 +10,18 @@ runs/<env>-jax_ppo-<seed> (_2, _3, … if taken; runs/latest then names the firs
 the run starts and holding:
 
     run.json         the settings, the device, the wall time with compilation, the success rate of each
-                     rollout's ended episodes so far, "status": "running"; at the end "finished" and the
-                     deterministic policy's success on 1,000 fresh episodes of the JAX env
-    policy.npz       at the end: the deterministic actor, which evaluate.py --agent runs/latest/policy.npz
-                     plays on the Gym env (with its memory, if it has one: --history, --recurrent)
+                     rollout's ended episodes so far, the learning curve ("curve": after every chunk, env
+                     steps and the deterministic policy's success on the same 256 fresh episodes of the JAX
+                     env), "status": "running"; at the end "finished" and the deterministic policy's
+                     success on 1,000 other fresh episodes
+    policy.npz       the deterministic actor after the last chunk (at the end: the trained one), which
+                     evaluate.py --agent runs/latest/policy.npz plays on the Gym env (with its memory, if it
+                     has one: --history, --recurrent)
     checkpoint.npz   in the first seed's folder, for all seeds: the whole training state after the last
                      chunk (networks, optimiser, environments, memories, keys), what --resume reads
 
-Each file is replaced whole (written beside, renamed over): after every chunk the checkpoint, then each
-run.json. --resume DIR (any seed's folder of the run) continues the run from its checkpoint with its own
+Each file is replaced whole (written beside, renamed over): after every chunk the policies, the checkpoint,
+then each run.json. --resume DIR (any seed's folder of the run) continues the run from its checkpoint with its own
 settings to the networks an uninterrupted run ends with (bit for bit on a CPU); beside it only
 --checkpoint-every may be given (it applies). A finished run is not resumed, and no new run writes into
 an old folder. A refused argument is one line on stderr and exit 2, with nothing written.
@@ -52,6 +55,11 @@ RUN_FILE = "run.json"
 CHECKPOINT_FILE = "checkpoint.npz"
 #: The fresh episodes of the JAX env that score each seed's deterministic policy at the end.
 EVAL_EPISODES = 1000
+#: The learning curve: after every chunk, the deterministic policy's success on these fresh episodes of the
+#: JAX env (the same ones each time; other episodes than the final evaluation's).
+CURVE_EPISODES = 256
+#: The keys of the two evaluations' episodes.
+EVAL_KEY, CURVE_KEY = 10**6, 2 * 10**6
 #: Flags that ``--resume`` applies; every other one is the run's own.
 RESUME_APPLIES = ("resume", "checkpoint_every")
 
@@ -127,11 +135,21 @@ def run_chunk(state: RunState, env_id: str, config: PPOConfig, updates: int) -> 
     return jax.vmap(lambda one: make_chunks(env, params, config).run(one, updates))(state)
 
 
-@functools.partial(jax.jit, static_argnames=("env_id", "config"))
-def final_success(actor: dict, env_id: str, config: PPOConfig) -> jax.Array:
-    """Each seed's deterministic success on the same fresh episodes of the JAX env."""
+@functools.partial(jax.jit, static_argnames=("env_id", "config", "episodes"))
+def deterministic_success(actor: dict, env_id: str, config: PPOConfig, episodes: int, seed: int) -> jax.Array:
+    """Each seed's deterministic success on the same ``episodes`` fresh episodes of the JAX env (key ``seed``)."""
     env, params = task(env_id)
-    return jax.vmap(lambda one: success_rate(env, params, config, one, jax.random.key(10**6), EVAL_EPISODES))(actor)
+    return jax.vmap(lambda one: success_rate(env, params, config, one, jax.random.key(seed), episodes))(actor)
+
+
+def save_policies(runs_dir: Path, progress: dict[str, Any], state: RunState, config: PPOConfig) -> None:
+    """Each seed's deterministic actor as it is now (``policy.npz``, replaced whole)."""
+    for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
+        network = jax.tree.map(lambda a: np.asarray(a)[row], state.network)
+        save_policy(runs_dir / name / POLICY_FILE, actor_arrays(network),
+                    {"env_id": progress["env_id"], "algo": ALGO, "seed": seed,
+                     "timesteps": progress["updates"] * config.batch_size, "history": config.history,
+                     "recurrent": config.recurrent})
 
 
 def seed_keys(seeds: list[int]) -> jax.Array:
@@ -171,10 +189,11 @@ def load_checkpoint(path: Path) -> tuple[RunState, dict[str, Any]]:
 
 def write_runs(runs_dir: Path, progress: dict[str, Any], status: str, final: np.ndarray | None = None) -> None:
     """Each seed's run.json: the run's ``progress`` with that seed's own entries."""
-    shared = {key: value for key, value in progress.items() if key not in ("seeds", "success_per_update")}
+    per_seed = ("success_per_update", "curve")
+    shared = {key: value for key, value in progress.items() if key != "seeds" and key not in per_seed}
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
         record = {"seed": seed, "seeds_trained_together": len(progress["seeds"]), "status": status, **shared,
-                  "success_per_update": progress["success_per_update"][row]}
+                  **{key: progress[key][row] for key in per_seed if key in progress}}
         if final is not None:
             record[f"final_success_jax_{EVAL_EPISODES}"] = float(final[row])
         cli.write_whole(runs_dir / name / RUN_FILE, json.dumps(record, indent=1))
@@ -279,19 +298,21 @@ def main(argv: list[str] | None = None) -> int:
             for row, curve in enumerate(success):
                 progress["success_per_update"][row] += [None if np.isnan(v) else float(v) for v in curve]
             progress["updates"] += updates
+            curve = np.asarray(deterministic_success(state.network["actor"], env_id, config, CURVE_EPISODES, CURVE_KEY))
+            for row, rate in enumerate(curve):  # runs begun before the curve was kept start it at their resume
+                progress.setdefault("curve", [[] for _ in progress["seeds"]])[row].append(
+                    [progress["updates"] * config.batch_size, float(rate)])
+            save_policies(runs_dir, progress, state, config)
             save(state)
-            print(f"update {progress['updates']} of {config.num_updates}: {chunk_summary(success)}", flush=True)
+            print(f"update {progress['updates']} of {config.num_updates}: {chunk_summary(success)}; deterministic "
+                  f"{', '.join(f'{rate:.1%}' for rate in curve)} on {CURVE_EPISODES} episodes", flush=True)
     except KeyboardInterrupt:
         print(f"interrupted: {progress['updates']} of {config.num_updates} updates checkpointed; continue with "
               f"python train_jax.py --resume {runs_dir / progress['runs'][0]}", file=sys.stderr)
         return 130
 
-    final = np.asarray(final_success(state.network["actor"], env_id, config))
+    final = np.asarray(deterministic_success(state.network["actor"], env_id, config, EVAL_EPISODES, EVAL_KEY))
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
-        network = jax.tree.map(lambda a: np.asarray(a)[row], state.network)
-        save_policy(runs_dir / name / POLICY_FILE, actor_arrays(network),
-                    {"env_id": env_id, "algo": ALGO, "seed": seed, "timesteps": config.num_updates * config.batch_size,
-                     "history": config.history, "recurrent": config.recurrent})
         print(f"seed {seed}: {float(final[row]):.1%} success on {EVAL_EPISODES:,} JAX episodes -> "
               f"{runs_dir / name / POLICY_FILE}")
     progress["wall_s_with_compile"] = wall_before + time.perf_counter() - start

@@ -640,11 +640,14 @@ def run_session(setup: Setup, config: dict[str, Any], run_dir: Path, command: st
 
 def selection_history(run_dir: Path) -> list[tuple[int, float]]:
     """A run's learning curve: (env steps, success rate on the selection episodes) at every
-    evaluation in its ``evaluations.npz``; empty if it has none (no evaluation, or an older run
-    that did not record successes)."""
+    evaluation in its ``evaluations.npz`` (train.py's) or its ``run.json``'s ``curve`` (train_jax.py's:
+    the same fresh episodes of the JAX env after every chunk); empty if it has none (no evaluation, or an
+    older run that did not record successes)."""
     log = Path(run_dir) / "evaluations.npz"
     if not log.is_file():
-        return []
+        record = Path(run_dir) / "run.json"
+        curve = json.loads(record.read_text()).get("curve", []) if record.is_file() else []
+        return [(int(steps), float(rate)) for steps, rate in curve]
     with np.load(log) as history:
         if "successes" not in history:
             return []

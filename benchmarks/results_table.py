@@ -110,7 +110,7 @@ def uncertain_task(path: Path, env: str) -> Task:
     """An uncertain task from ``benchmarks.ceiling``'s results: the classical agents and bounds by
     name, the learners of :data:`UNCERTAIN_LEARNERS` by their runs."""
     agents = json.loads(path.read_text())[env]["agents"]
-    classical = {name: np.array(row["success"], bool) for name, row in agents.items() if not name.endswith(".zip")}
+    classical = {name: np.array(row["success"], bool) for name, row in agents.items() if not name.endswith((".zip", ".npz"))}
     learners = [Learner(label, residual, np.array([agents[run]["success"] for run in runs], bool))
                 for label, residual, runs in UNCERTAIN_LEARNERS[env]]
     return Task(classical, learners, 0, str(path.relative_to(ROOT)))

@@ -158,7 +158,7 @@ def test_bad_settings_are_refused_naming_them() -> None:
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--env", "LightSailUncertain-v2"], "JAX backend has"), (["--seeds", "0"], "--seeds"),
+    (["--env", "CartPole-v1"], "JAX backend has"), (["--seeds", "0"], "--seeds"),
     (["-n", "10"], "total_timesteps"), (["--hidden", "64,x"], "--hidden"), (["--hidden", "64,0"], "--hidden"),
     (["--gamma", "1.5"], "gamma"), (["--ent-coef", "-0.1"], "ent_coef"), (["--history", "0"], "--history"),
     (["--recurrent", "8", "--num-envs", "6", "--num-minibatches", "4"], "num_envs (6) must be a multiple"),
