@@ -23,7 +23,7 @@ the run starts and holding:
 Each file is replaced whole (written beside, renamed over): after every chunk the policies, the checkpoint,
 then each run.json. --resume DIR (any seed's folder of the run) continues the run from its checkpoint with its own
 settings to the networks an uninterrupted run ends with (bit for bit on a CPU); beside it only
---checkpoint-every may be given (it applies). A finished run is not resumed, and no new run writes into
+--checkpoint-every may be given (without it the run keeps its chunks). A finished run is not resumed, and no new run writes into
 an old folder. A refused argument is one line on stderr and exit 2, with nothing written.
 """
 
@@ -60,6 +60,8 @@ EVAL_EPISODES = 1000
 CURVE_EPISODES = 256
 #: The keys of the two evaluations' episodes.
 EVAL_KEY, CURVE_KEY = 10**6, 2 * 10**6
+#: Updates per chunk unless ``--checkpoint-every`` says otherwise (a resumed run: its own).
+CHECKPOINT_EVERY = 100
 #: Flags that ``--resume`` applies; every other one is the run's own.
 RESUME_APPLIES = ("resume", "checkpoint_every")
 
@@ -104,8 +106,9 @@ def build_parser() -> cli.Parser:
                         help="the networks see the last H observations (1: the current one)")
     parser.add_argument("--recurrent", type=cli.non_negative_int, default=defaults["recurrent"],
                         help="units of a GRU in actor and critic (0: none)")
-    parser.add_argument("--checkpoint-every", type=cli.positive_int, default=100, metavar="UPDATES",
-                        help="updates per compiled chunk, after each of which the run is checkpointed")
+    parser.add_argument("--checkpoint-every", type=cli.positive_int, metavar="UPDATES",
+                        help=f"updates per compiled chunk, after each of which the run is checkpointed (default "
+                             f"{CHECKPOINT_EVERY}; a resumed run keeps its own unless given)")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where the run folders are made")
     parser.add_argument("--resume", type=Path, metavar="RUN_DIR",
                         help="continue the run in RUN_DIR (any seed's folder) from its checkpoint")
@@ -280,6 +283,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{ALGO} on {progress['env_id']}: resuming {progress['runs'][0]} at update {progress['updates']} "
               f"of {config.num_updates} on {device}", flush=True)
         progress["resumed"].append({"command": command, "device": device, "at_update": progress["updates"]})
+    # A resumed run keeps its chunks unless told otherwise (runs begun before they were kept: the default).
+    progress["checkpoint_every"] = args.checkpoint_every or progress.get("checkpoint_every", CHECKPOINT_EVERY)
     env_id, checkpoint = progress["env_id"], runs_dir / progress["runs"][0] / CHECKPOINT_FILE
     wall_before, updates_before = progress["wall_s_with_compile"], progress["updates"]
 
@@ -292,7 +297,7 @@ def main(argv: list[str] | None = None) -> int:
         save(state)  # an interruption during the first chunk resumes from here
     try:
         while progress["updates"] < config.num_updates:
-            updates = min(args.checkpoint_every, config.num_updates - progress["updates"])
+            updates = min(progress["checkpoint_every"], config.num_updates - progress["updates"])
             state, metrics = run_chunk(state, env_id, config, updates)
             success = np.asarray(metrics["success"])
             for row, curve in enumerate(success):

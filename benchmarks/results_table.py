@@ -45,7 +45,9 @@ NAMES = {"passive": "passive", "lqr": "LQR", "lqg": "LQG", "lqg-mm": "`lqg-mm`",
          "ppo": "PPO", "sac": "SAC", "td3": "TD3", "recurrent_ppo": "RecurrentPPO"}
 #: The uncertain tasks' learners in :data:`UNCERTAIN`, per task: a label, whether it corrects a
 #: classical design (a residual), and its runs (one per seed).
-UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (), "LightSailUncertain-v1": (
+UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
+    ("JAX PPO, 8-observation history (4M steps)", False, ("runs/jax/uncertain-v2-history8-seed0/policy.npz",)),
+), "LightSailUncertain-v1": (
     ("PPO residual on `lqg-mm-offset`", True,
      tuple(f"runs/tuned/ppo-residual-offset-v1-seed{seed}/best_model.zip" for seed in range(3))),
     ("PPO residual on `lqg-mm`", True, ("runs/tuned/ppo-residual-uncertain-seed0/best_model.zip",)),

@@ -197,7 +197,9 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
     assert f"--resume {tmp_path / 'parts' / 'LightSail-v0-jax_ppo-0'}" in capsys.readouterr().err
     record = json.loads((run / "run.json").read_text())
     assert record["status"] == "running" and record["updates"] == 1 and len(record["success_per_update"]) == 1
-    assert not (run / "policy.npz").exists()
+    with np.load(run / "policy.npz") as snapshot:  # the policy after the chunk that finished, playable
+        assert json.loads(str(snapshot["meta"]))["timesteps"] == record["steps_per_update"]
+    assert len(record["curve"]) == 1 and record["curve"][0][0] == record["steps_per_update"]
     assert train_jax.main(["--resume", str(run), "--checkpoint-every", "1"]) == 0
     for seed in (0, 1):
         whole, parts = (tmp_path / kind / f"LightSail-v0-jax_ppo-{seed}" for kind in ("whole", "parts"))
@@ -211,6 +213,7 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
         assert other["status"] == "finished" and other["resumed"][0]["at_update"] == 1
         for key in ("success_per_update", "final_success_jax_1000", "updates", "config"):
             assert one[key] == other[key], key
+        assert one["curve"][-1] == other["curve"][-1]  # after each run's chunks: 2 updates, and 1 + 1
     capsys.readouterr()
     assert train_jax.main(["--resume", str(run)]) == 2
     assert "has finished" in capsys.readouterr().err
