@@ -47,6 +47,7 @@ NAMES = {"passive": "passive", "lqr": "LQR", "lqg": "LQG", "lqg-mm": "`lqg-mm`",
 #: classical design (a residual), and its runs (one per seed).
 UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
     ("JAX PPO, 8-observation history (4M steps)", False, ("runs/jax/uncertain-v2-history8-seed0/policy.npz",)),
+    ("JAX PPO, GRU (4M steps)", False, ("runs/jax/uncertain-v2-gru128-seed0/policy.npz",)),
 ), "LightSailUncertain-v1": (
     ("PPO residual on `lqg-mm-offset`", True,
      tuple(f"runs/tuned/ppo-residual-offset-v1-seed{seed}/best_model.zip" for seed in range(3))),
