@@ -72,8 +72,14 @@ BANK_SEED = 0
 #: :func:`bank_of` checks that every draw's, with any command held, stays within this limit. Under
 #: ``vmap`` every squaring up to the limit is computed, so it is not set higher than needed.
 MAX_SQUARINGS = 20
-#: Environments :meth:`SailEnv.step_batch` coasts or resets together (:func:`_on_rows`).
-CHUNK = 256
+#: Environments :meth:`SailEnv.step_batch` coasts or resets together (:func:`_on_rows`), by JAX platform.
+#: On a CPU a gathered row costs about the same in a chunk of any size, so a small chunk wastes least
+#: when a few episodes end on a step, as in training once the episodes' ends drift apart: 8 against
+#: 256 on ``LightSailUncertain-v2`` at N = 256 under the LQR, on one core, 10x as many env-steps/s with
+#: the ends spread over the window, 19x with every episode started together (``benchmarks/gather_chunk.py``).
+#: An accelerator runs a chunk's rows side by side: 256 there (not measured against other sizes).
+CHUNK = {"cpu": 8}
+ACCELERATOR_CHUNK = 256
 #: θ₁₃ of the Padé approximant ``jax.scipy.linalg.expm`` uses: it squares ``log2(‖A‖₁ / θ₁₃)`` times.
 _PADE13_THETA = 5.371920351148152
 
@@ -284,7 +290,7 @@ def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
     again unchanged), as many chunks as ``need`` has rows: none on most steps of a batch whose
     episodes end together."""
     envs = need.shape[0]
-    chunk = min(envs, CHUNK)
+    chunk = min(envs, CHUNK.get(jax.default_backend(), ACCELERATOR_CHUNK))
     rows = jnp.nonzero(need, size=-(-envs // chunk) * chunk, fill_value=0)[0]
     count = jnp.sum(need)
     batched = jax.vmap(function)
@@ -293,7 +299,7 @@ def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
 
     def one(carry: tuple[jax.Array, Any]) -> tuple[jax.Array, Any]:
         start, out = carry
-        # Tied to the loop's counter: with one chunk (N <= CHUNK) the slice is the whole array, and XLA
+        # Tied to the loop's counter: with one chunk (N <= the chunk) the slice is the whole array, and XLA
         # would hoist the work out of the loop and do it on every step (measured: a 3D coast per step).
         taken, _ = jax.lax.optimization_barrier((jax.lax.dynamic_slice(rows, (start,), (chunk,)), start))
         done = batched(*jax.tree.map(lambda leaf: leaf[taken], inputs))

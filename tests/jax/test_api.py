@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -87,7 +88,7 @@ def test_the_batched_step_is_vmapped_step(env_id: str) -> None:
     """``step_batch`` gates the coast and the resets on the batch but plays what ``vmap(step)`` plays,
     to the bit, through two windows with autoreset (and a few early divergences)."""
     env, params = sail_env.jax.make(env_id, draws=64)
-    envs, steps = 260, 410  # more than one chunk of step_batch's gathering (CHUNK = 256)
+    envs, steps = 260, 410  # more than one chunk of step_batch's gathering on any platform (CHUNK)
 
     def rollout(batched: bool):
         def run(key):
@@ -159,6 +160,22 @@ def test_speed_jax_writes_its_table_between_the_markers(tmp_path) -> None:
     text = doc.read_text()
     assert "old" not in text and text.startswith("before\n") and text.endswith("after\n")
     assert "| LightSail-v0 | 64 |" in text and "first step of `LightSail-v0`" in text
+
+
+def test_gather_chunk_times_each_size_on_the_same_episodes_and_restores_the_setting(tmp_path) -> None:
+    from benchmarks import gather_chunk
+    from sail_env.jax import env as jax_env
+
+    kept, out = dict(jax_env.CHUNK), tmp_path / "chunk.json"
+    assert gather_chunk.main(["--env", "LightSail-v0", "--envs", "16", "--chunks", "2", "16", "--rounds", "1",
+                              "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert [(row["case"], row["chunk"]) for row in rows] == [("spread", 2), ("spread", 16), ("together", 2),
+                                                             ("together", 16)]
+    assert all(row["rate"] > 0 for row in rows) and jax_env.CHUNK == kept
+    # The chunk size changes the cost, never the episodes: the same number ended either way.
+    assert rows[0]["episodes_ended"] == rows[1]["episodes_ended"] > 0
+    assert rows[2]["episodes_ended"] == rows[3]["episodes_ended"] >= 16
 
 
 def test_the_readmes_jax_example_prints_what_it_says() -> None:
