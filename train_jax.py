@@ -17,6 +17,9 @@ the run starts and holding:
     policy.npz       the deterministic actor after the last chunk (at the end: the trained one), which
                      evaluate.py --agent runs/latest/policy.npz plays on the Gym env (with its memory, if it
                      has one: --history, --recurrent)
+    best_policy.npz  the actor after the chunk whose curve point is the highest so far (the first of equals;
+                     run.json "best": its env steps and success): the model a learner is reported with, as
+                     train.py's best_model.zip, selected on the curve's episodes, apart from any evaluation's
     checkpoint.npz   in the first seed's folder, for all seeds: the whole training state after the last
                      chunk (networks, optimiser, environments, memories, keys), what --resume reads
 
@@ -52,6 +55,7 @@ from sail_env.tasks import JAX_TASKS
 
 ALGO = "jax_ppo"
 RUN_FILE = "run.json"
+BEST_POLICY_FILE = "best_policy.npz"
 CHECKPOINT_FILE = "checkpoint.npz"
 #: The fresh episodes of the JAX env that score each seed's deterministic policy at the end.
 EVAL_EPISODES = 1000
@@ -95,7 +99,10 @@ def build_parser() -> cli.Parser:
                         help="per epoch (with --recurrent: sets of whole environments)")
     parser.add_argument("--update-epochs", type=cli.positive_int, default=defaults["update_epochs"],
                         help="passes over each rollout")
-    parser.add_argument("--learning-rate", type=float, default=defaults["learning_rate"], help="annealed linearly to 0")
+    parser.add_argument("--learning-rate", type=float, default=defaults["learning_rate"],
+                        help="Adam's step size, annealed linearly to 0 unless --no-anneal-lr")
+    parser.add_argument("--anneal-lr", action=argparse.BooleanOptionalAction, default=defaults["anneal_lr"],
+                        help="anneal the learning rate linearly to 0 over the run (--no-anneal-lr: keep it)")
     parser.add_argument("--gamma", type=float, default=defaults["gamma"], help="discount")
     parser.add_argument("--ent-coef", type=float, default=defaults["ent_coef"], help="weight of the entropy bonus")
     parser.add_argument("--log-std-init", type=float, default=defaults["log_std_init"],
@@ -145,11 +152,14 @@ def deterministic_success(actor: dict, env_id: str, config: PPOConfig, episodes:
     return jax.vmap(lambda one: success_rate(env, params, config, one, jax.random.key(seed), episodes))(actor)
 
 
-def save_policies(runs_dir: Path, progress: dict[str, Any], state: RunState, config: PPOConfig) -> None:
-    """Each seed's deterministic actor as it is now (``policy.npz``, replaced whole)."""
+def save_policies(runs_dir: Path, progress: dict[str, Any], state: RunState, config: PPOConfig,
+                  file: str = POLICY_FILE, rows: list[int] | None = None) -> None:
+    """Each seed's deterministic actor as it is now (``file``, replaced whole), or only those of ``rows``."""
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
+        if rows is not None and row not in rows:
+            continue
         network = jax.tree.map(lambda a: np.asarray(a)[row], state.network)
-        save_policy(runs_dir / name / POLICY_FILE, actor_arrays(network),
+        save_policy(runs_dir / name / file, actor_arrays(network),
                     {"env_id": progress["env_id"], "algo": ALGO, "seed": seed,
                      "timesteps": progress["updates"] * config.batch_size, "history": config.history,
                      "recurrent": config.recurrent})
@@ -192,7 +202,7 @@ def load_checkpoint(path: Path) -> tuple[RunState, dict[str, Any]]:
 
 def write_runs(runs_dir: Path, progress: dict[str, Any], status: str, final: np.ndarray | None = None) -> None:
     """Each seed's run.json: the run's ``progress`` with that seed's own entries."""
-    per_seed = ("success_per_update", "curve")
+    per_seed = ("success_per_update", "curve", "best")
     shared = {key: value for key, value in progress.items() if key != "seeds" and key not in per_seed}
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
         record = {"seed": seed, "seeds_trained_together": len(progress["seeds"]), "status": status, **shared,
@@ -298,19 +308,29 @@ def main(argv: list[str] | None = None) -> int:
     try:
         while progress["updates"] < config.num_updates:
             updates = min(progress["checkpoint_every"], config.num_updates - progress["updates"])
+            chunk_start = time.perf_counter()
             state, metrics = run_chunk(state, env_id, config, updates)
-            success = np.asarray(metrics["success"])
+            success = np.asarray(metrics["success"])  # waits for the chunk
+            trained_s = time.perf_counter() - chunk_start
             for row, curve in enumerate(success):
                 progress["success_per_update"][row] += [None if np.isnan(v) else float(v) for v in curve]
             progress["updates"] += updates
             curve = np.asarray(deterministic_success(state.network["actor"], env_id, config, CURVE_EPISODES, CURVE_KEY))
+            best, improved = progress.setdefault("best", [None for _ in progress["seeds"]]), []
             for row, rate in enumerate(curve):  # runs begun before the curve was kept start it at their resume
-                progress.setdefault("curve", [[] for _ in progress["seeds"]])[row].append(
-                    [progress["updates"] * config.batch_size, float(rate)])
+                point = [progress["updates"] * config.batch_size, float(rate)]
+                progress.setdefault("curve", [[] for _ in progress["seeds"]])[row].append(point)
+                if best[row] is None or point[1] > best[row][1]:
+                    best[row] = point
+                    improved.append(row)
+            scored_s = time.perf_counter() - chunk_start - trained_s
             save_policies(runs_dir, progress, state, config)
+            save_policies(runs_dir, progress, state, config, BEST_POLICY_FILE, improved)
             save(state)
+            speed = len(progress["seeds"]) * updates * config.batch_size / trained_s  # the first chunk's: with compiling
             print(f"update {progress['updates']} of {config.num_updates}: {chunk_summary(success)}; deterministic "
-                  f"{', '.join(f'{rate:.1%}' for rate in curve)} on {CURVE_EPISODES} episodes", flush=True)
+                  f"{', '.join(f'{rate:.1%}' for rate in curve)} on {CURVE_EPISODES} episodes ({speed:,.0f} "
+                  f"env-steps/s training, {scored_s:.0f} s scoring)", flush=True)
     except KeyboardInterrupt:
         print(f"interrupted: {progress['updates']} of {config.num_updates} updates checkpointed; continue with "
               f"python train_jax.py --resume {runs_dir / progress['runs'][0]}", file=sys.stderr)
@@ -318,8 +338,10 @@ def main(argv: list[str] | None = None) -> int:
 
     final = np.asarray(deterministic_success(state.network["actor"], env_id, config, EVAL_EPISODES, EVAL_KEY))
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
+        steps, rate = progress["best"][row]
         print(f"seed {seed}: {float(final[row]):.1%} success on {EVAL_EPISODES:,} JAX episodes -> "
-              f"{runs_dir / name / POLICY_FILE}")
+              f"{runs_dir / name / POLICY_FILE}; the best on the curve, {rate:.1%} at {steps:,} steps -> "
+              f"{runs_dir / name / BEST_POLICY_FILE}")
     progress["wall_s_with_compile"] = wall_before + time.perf_counter() - start
     write_runs(runs_dir, progress, "finished", final)
     session = time.perf_counter() - start

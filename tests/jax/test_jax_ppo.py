@@ -173,6 +173,14 @@ def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, capsys
     assert not (tmp_path / "runs").exists()
 
 
+def test_train_jax_anneals_the_learning_rate_unless_told_not_to() -> None:
+    import train_jax
+
+    parse = train_jax.build_parser().parse_args
+    assert train_jax.config_of(vars(parse([]))).anneal_lr
+    assert not train_jax.config_of(vars(parse(["--no-anneal-lr"]))).anneal_lr
+
+
 def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupted_one(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     """Interrupted during its second chunk of one update, then resumed: the networks, optimiser and
@@ -214,6 +222,10 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
         for key in ("success_per_update", "final_success_jax_1000", "updates", "config"):
             assert one[key] == other[key], key
         assert one["curve"][-1] == other["curve"][-1]  # after each run's chunks: 2 updates, and 1 + 1
+        # the best policy: the curve's first highest point, and the actor saved after that chunk
+        assert other["best"] == max(other["curve"], key=lambda point: point[1])
+        with np.load(parts / "best_policy.npz") as best:
+            assert json.loads(str(best["meta"]))["timesteps"] == other["best"][0]
     capsys.readouterr()
     assert train_jax.main(["--resume", str(run)]) == 2
     assert "has finished" in capsys.readouterr().err
