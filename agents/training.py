@@ -487,7 +487,7 @@ class KeepBestBySuccess(BaseCallback):
         if new_best:
             self.best = score
             save_model(self.model, self.run_dir / "best_model.zip")
-            (self.run_dir / "best_model.json").write_text(json.dumps(score, indent=2))
+            cli.write_whole(self.run_dir / "best_model.json", json.dumps(score, indent=2))
         evaluation.eval_env.seed(self.eval_seed)
         if self.on_evaluation is not None:
             self.on_evaluation(self.num_timesteps, score["success_rate"])
@@ -507,7 +507,7 @@ def read_best(run_dir: Path) -> dict[str, Any]:
 def write_run_json(run_dir: Path, config: dict[str, Any], sessions: list[dict[str, Any]]) -> None:
     """Configuration, versions, and one entry per session (command, status, steps, wall time)."""
     record = {"command": sessions[0]["command"], "config": config, "versions": versions(), "sessions": sessions}
-    (run_dir / "run.json").write_text(json.dumps(record, indent=2))
+    cli.write_whole(run_dir / "run.json", json.dumps(record, indent=2))
 
 
 def build_model(config: dict[str, Any], train_env: VecEnv, resume_from: Path | None) -> BaseAlgorithm:

@@ -344,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{stop}: the trial is queued again; the same command resumes it from its checkpoint", flush=True)
         return 130
     out = args.runs_dir / study_name / "best.yml"
-    out.write_text(best_yaml(study, args.env))
+    cli.write_whole(out, best_yaml(study, args.env))
     print(f"best: trial {study.best_trial.number}, success {study.best_value:.1%} -> {out}\n"
           f"train it: python train.py --algo {args.algo} --env {args.env} --config {out}")
     return 0

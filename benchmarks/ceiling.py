@@ -25,6 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 import sail_env  # noqa: F401
+from agents import cli
 from agents.evaluation import BASELINES, DEFAULT_SEED, make_agent, paired_difference, run_agent, summarise
 from agents.sb3 import one_thread_per_process
 
@@ -57,7 +58,7 @@ def measure(env_id: str, agents: list[str], episodes: int, seed: int, out: Path,
             for other, row in entry["agents"].items():
                 if other != REFERENCE:
                     row["vs_lqg"] = paired_difference(np.array(row["success"], bool), reference)
-        out.write_text(json.dumps(results, indent=1, allow_nan=False))
+        cli.write_whole(out, json.dumps(results, indent=1, allow_nan=False))
         print(f"{key} {name}: {outcomes[name].mean():.1%}", flush=True)
     return entry
 

@@ -32,6 +32,7 @@ import gymnasium as gym
 import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
+from agents import cli
 from agents.evaluation import BASELINES, DEFAULT_SEED, run_agent
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD
 from sail_env.provenance import machine, package_versions
@@ -99,7 +100,7 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"\nlargest: {worst:.1e} ({'below' if worst < SAME_EPISODES else 'ABOVE'} {SAME_EPISODES:g}: "
           f"{'the same episodes' if worst < SAME_EPISODES else 'not the same episodes'})")
     summary.update(machine=machine(), versions=package_versions("numpy", "scipy"))
-    (args.out / f"cross_kernel_{args.agent}.json").write_text(json.dumps(summary, indent=1) + "\n")
+    cli.write_whole(args.out / f"cross_kernel_{args.agent}.json", json.dumps(summary, indent=1) + "\n")
     return summary
 
 

@@ -19,6 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from agents import cli
 from agents.sb3 import versions
 from sail_env.provenance import machine
 
@@ -61,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
               "ppo_success_rate": ppo["success_rate"], "ppo_median_pointing_rad": ppo["terminal_pointing_rad"]["median"],
               "episodes": ppo["episodes"]}
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
+    cli.write_whole(RESULTS, json.dumps(result, indent=2) + "\n")
     for step, seconds in result["seconds"].items():
         print(f"{seconds:7.1f} s  {step}")
     print(f"train + evaluate: {result['train_and_evaluate_s']} s; PPO success {ppo['success_rate']:.1%} on "

@@ -307,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
         tables.append(table)
         print(table + "\n", flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2))
+    cli.write_whole(args.out, json.dumps(result, indent=2))
     if args.readme is not None:
         cli.replace_readme_section(args.readme, README_SECTION, "\n\n".join(tables))
     return 0

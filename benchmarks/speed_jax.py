@@ -234,9 +234,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.readme:
         cli.replace_readme_section(args.readme, README_SECTION, "\n".join(lines))
     if args.out:
-        args.out.write_text(json.dumps({"device": str(device.device_kind), "machine": machine(),
-                                        "jax": jax.__version__, "steps": args.steps, "rows": rows,
-                                        "cold_start_s": cold}, indent=1))
+        cli.write_whole(args.out, json.dumps({"device": str(device.device_kind), "machine": machine(),
+                                              "jax": jax.__version__, "steps": args.steps, "rows": rows,
+                                              "cold_start_s": cold}, indent=1))
     return 0
 
 
