@@ -46,6 +46,8 @@ NAMES = {"passive": "passive", "lqr": "LQR", "lqg": "LQG", "lqg-mm": "`lqg-mm`",
 #: The uncertain tasks' learners in :data:`UNCERTAIN`, per task: a label, whether it corrects a
 #: classical design (a residual), and its runs (one per seed).
 UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
+    ("JAX PPO, 8-observation history (10M steps, CPU; its curve's best)", False,
+     ("runs/jax/uncertain-v2-history8-10M-seed0/best_policy.npz",)),
     ("JAX PPO, 8-observation history (4M steps)", False, ("runs/jax/uncertain-v2-history8-seed0/policy.npz",)),
     ("JAX PPO, GRU (4M steps)", False, ("runs/jax/uncertain-v2-gru128-seed0/policy.npz",)),
 ), "LightSailUncertain-v1": (
