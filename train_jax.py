@@ -338,10 +338,10 @@ def main(argv: list[str] | None = None) -> int:
 
     final = np.asarray(deterministic_success(state.network["actor"], env_id, config, EVAL_EPISODES, EVAL_KEY))
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
-        steps, rate = progress["best"][row]
+        best = progress.get("best", [None] * len(progress["seeds"]))[row]  # none: resumed after its last chunk
         print(f"seed {seed}: {float(final[row]):.1%} success on {EVAL_EPISODES:,} JAX episodes -> "
-              f"{runs_dir / name / POLICY_FILE}; the best on the curve, {rate:.1%} at {steps:,} steps -> "
-              f"{runs_dir / name / BEST_POLICY_FILE}")
+              f"{runs_dir / name / POLICY_FILE}" + (f"; the best on the curve, {best[1]:.1%} at {best[0]:,} steps -> "
+                                                    f"{runs_dir / name / BEST_POLICY_FILE}" if best else ""))
     progress["wall_s_with_compile"] = wall_before + time.perf_counter() - start
     write_runs(runs_dir, progress, "finished", final)
     session = time.perf_counter() - start
