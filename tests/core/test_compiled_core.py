@@ -154,7 +154,7 @@ def test_a_batch_reset_draws_what_each_environment_would_alone():
 
 #: A few tests of tests/core and tests/envs, run with the kernels as plain Python.
 SUBSET = ["tests/core/test_same_numbers.py::test_noise_free_episodes_are_those_of_v0_1_0[LightSail-v0|delay10s]",
-          "tests/core/test_recorded_noisy_episodes.py::test_noisy_episodes_are_those_recorded[LightSail3DRealistic-v1-3]",
+          "tests/core/test_recorded_noisy_episodes.py::test_noisy_episodes_are_those_recorded[v0.2.0-LightSail3DRealistic-v1-3]",
           "tests/core/test_compiled_core.py::test_the_compiled_step_applies_the_divergence_rule_the_plant_declares"
           "[LightSail3D-v0]",
           "tests/core/test_limits.py::test_vector_env_refuses_non_finite_actions_and_a_step_before_reset",
