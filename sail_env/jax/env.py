@@ -73,8 +73,8 @@ BANK_SEED = 0
 #: ``vmap`` every squaring up to the limit is computed, so it is not set higher than needed.
 MAX_SQUARINGS = 20
 #: Environments :meth:`SailEnv.step_batch` coasts or resets together (:func:`_on_rows`), by JAX platform.
-#: On a CPU a gathered row costs about the same in a chunk of any size, so a small chunk wastes least
-#: when a few episodes end on a step, as in training once the episodes' ends drift apart: 8 against
+#: A chunk costs its full size however few of its rows need the work, so on a CPU a small chunk wastes
+#: least when a few episodes end on a step, as in training once the episodes' ends drift apart: 8 against
 #: 256 on ``LightSailUncertain-v2`` at N = 256 under the LQR, on one core, 10x as many env-steps/s with
 #: the ends spread over the window, 19x with every episode started together (``benchmarks/gather_chunk.py``).
 #: An accelerator runs a chunk's rows side by side: 256 there (not measured against other sizes).
