@@ -38,6 +38,7 @@ import sail_env.jax
 import sail_env.jax.env as jax_env
 from agents import cli
 from agents.jax_policies import lqr_policy
+from benchmarks.speed_jax import timed
 from sail_env.provenance import machine
 
 CASES = {"spread": 20, "together": None}  # steps per call; None: one window and a step
@@ -77,12 +78,6 @@ def chunk_size(platform: str, chunk: int) -> Iterator[None]:
     finally:
         jax_env.CHUNK.clear()
         jax_env.CHUNK.update(kept)
-
-
-def timed(function, key) -> float:
-    start = time.perf_counter()
-    jax.block_until_ready(function(key))
-    return time.perf_counter() - start
 
 
 def main(argv: list[str] | None = None) -> int:
