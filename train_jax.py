@@ -100,9 +100,12 @@ def build_parser() -> cli.Parser:
     parser.add_argument("--update-epochs", type=cli.positive_int, default=defaults["update_epochs"],
                         help="passes over each rollout")
     parser.add_argument("--learning-rate", type=float, default=defaults["learning_rate"],
-                        help="Adam's step size, annealed linearly to 0 unless --no-anneal-lr")
+                        help="Adam's step size, annealed linearly unless --no-anneal-lr")
     parser.add_argument("--anneal-lr", action=argparse.BooleanOptionalAction, default=defaults["anneal_lr"],
-                        help="anneal the learning rate linearly to 0 over the run (--no-anneal-lr: keep it)")
+                        help="anneal the learning rate linearly over the run to --final-learning-rate "
+                             "(--no-anneal-lr: keep it)")
+    parser.add_argument("--final-learning-rate", type=float, default=defaults["final_learning_rate"],
+                        help="where the annealing ends, in [0, --learning-rate]")
     parser.add_argument("--gamma", type=float, default=defaults["gamma"], help="discount")
     parser.add_argument("--ent-coef", type=float, default=defaults["ent_coef"], help="weight of the entropy bonus")
     parser.add_argument("--log-std-init", type=float, default=defaults["log_std_init"],

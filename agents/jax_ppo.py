@@ -3,7 +3,7 @@
 keys trains many seeds at once (PureJaxRL's design; Lu et al. 2022). The method is PPO with the
 clipped objective (Schulman et al. 2017) as CleanRL's continuous-action script runs it: separate tanh
 actor and critic networks, a state-independent log standard deviation, advantages normalised per
-minibatch, the learning rate annealed linearly.
+minibatch, the learning rate annealed linearly (to 0, or to a floor: ``final_learning_rate``).
 
 A task whose unknowns must be read from the observation stream needs a policy with memory; two kinds:
 
@@ -30,6 +30,7 @@ plays it in NumPy, so ``evaluate.py`` reports it on the Gym envs beside the othe
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -53,6 +54,7 @@ class PPOConfig:
     num_minibatches: int = 8
     learning_rate: float = 1e-3
     anneal_lr: bool = True
+    final_learning_rate: float = 0.0  # where the annealing ends (a floor keeps a long run learning to its end)
     gamma: float = 0.99
     gae_lambda: float = 0.95
     clip_coef: float = 0.2
@@ -89,6 +91,11 @@ class PPOConfig:
         for name in ("learning_rate", "max_grad_norm"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not 0 <= self.final_learning_rate <= self.learning_rate:
+            raise ValueError(f"final_learning_rate must be in [0, learning_rate = {self.learning_rate}], "
+                             f"got {self.final_learning_rate}")
+        if self.final_learning_rate and not self.anneal_lr:
+            raise ValueError("final_learning_rate is where the annealing ends: it needs anneal_lr")
         if not self.ent_coef >= 0:
             raise ValueError(f"ent_coef must be >= 0, got {self.ent_coef}")
         if not np.isfinite(self.log_std_init):
@@ -240,6 +247,14 @@ class Chunks(NamedTuple):
     rollout: Callable[[RunState], tuple[RunState, Transition, dict[str, jax.Array | None]]]
 
 
+def learning_rate_at(config: PPOConfig, count: jax.Array) -> jax.Array:
+    """The annealed learning rate of Adam's ``count``-th step: constant through each update's minibatch
+    steps, from ``learning_rate`` at the first update linearly towards ``final_learning_rate`` at the
+    end of the run."""
+    done = count // (config.num_minibatches * config.update_epochs)
+    return config.learning_rate - (config.learning_rate - config.final_learning_rate) * done / config.num_updates
+
+
 def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     """A PPO run on ``env`` (a :class:`~sail_env.jax.env.SailEnv`, stepped by its ``step_batch``) in
     chunks of updates. Each update's metrics: the success rate of the episodes that ended in its
@@ -248,12 +263,9 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     obs_size = env.observation_space(env_params).shape[0]
     minibatch = config.batch_size // config.num_minibatches
 
-    def schedule(count: jax.Array) -> jax.Array:
-        done = count // (config.num_minibatches * config.update_epochs)
-        return config.learning_rate * (1.0 - done / config.num_updates)
-
     optimizer = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
-                            optax.adam(schedule if config.anneal_lr else config.learning_rate, eps=1e-5))
+                            optax.adam(functools.partial(learning_rate_at, config) if config.anneal_lr
+                                       else config.learning_rate, eps=1e-5))
 
     def init(key: jax.Array) -> RunState:
         key, net_key, reset_key = jax.random.split(key, 3)

@@ -21,7 +21,7 @@ import jax.numpy as jnp  # noqa: E402
 
 import sail_env.jax  # noqa: E402
 from agents.jax_ppo import (Memory, PPOConfig, _log_prob, _unroll, actor_arrays, apply, init_network,  # noqa: E402
-                            make_chunks, make_train)
+                            learning_rate_at, make_chunks, make_train)
 from agents.mlp_policy import MlpPolicyAgent, save_policy  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -160,7 +160,9 @@ def test_bad_settings_are_refused_naming_them() -> None:
 @pytest.mark.parametrize("argv, message", [
     (["--env", "CartPole-v1"], "JAX backend has"), (["--seeds", "0"], "--seeds"),
     (["-n", "10"], "total_timesteps"), (["--hidden", "64,x"], "--hidden"), (["--hidden", "64,0"], "--hidden"),
-    (["--gamma", "1.5"], "gamma"), (["--ent-coef", "-0.1"], "ent_coef"), (["--history", "0"], "--history"),
+    (["--gamma", "1.5"], "gamma"), (["--final-learning-rate", "0.1"], "final_learning_rate must be in [0"),
+    (["--no-anneal-lr", "--final-learning-rate", "1e-5"], "it needs anneal_lr"),
+    (["--ent-coef", "-0.1"], "ent_coef"), (["--history", "0"], "--history"),
     (["--recurrent", "8", "--num-envs", "6", "--num-minibatches", "4"], "num_envs (6) must be a multiple"),
     (["--resume", "runs/x"], "drop --runs-dir")])
 def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
@@ -173,12 +175,20 @@ def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, capsys
     assert not (tmp_path / "runs").exists()
 
 
-def test_train_jax_anneals_the_learning_rate_unless_told_not_to() -> None:
+def test_train_jax_anneals_the_learning_rate_to_its_floor_unless_told_not_to() -> None:
     import train_jax
 
     parse = train_jax.build_parser().parse_args
     assert train_jax.config_of(vars(parse([]))).anneal_lr
     assert not train_jax.config_of(vars(parse(["--no-anneal-lr"]))).anneal_lr
+    config = train_jax.config_of(vars(parse(["-n", "40960", "--learning-rate", "1e-3",
+                                             "--final-learning-rate", "2e-4"])))
+    per_update = config.num_minibatches * config.update_epochs
+    assert config.num_updates == 10 and config.final_learning_rate == 2e-4
+    steps = np.array([0, per_update - 1, 5 * per_update, 10 * per_update])
+    np.testing.assert_allclose(learning_rate_at(config, jnp.asarray(steps)), [1e-3, 1e-3, 6e-4, 2e-4], rtol=1e-6)
+    zero = dataclasses.replace(config, final_learning_rate=0.0)  # the default: to 0, as CleanRL's
+    np.testing.assert_allclose(learning_rate_at(zero, jnp.asarray(steps)), [1e-3, 1e-3, 5e-4, 0.0], atol=1e-12)
 
 
 def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupted_one(
