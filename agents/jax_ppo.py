@@ -5,7 +5,7 @@ clipped objective (Schulman et al. 2017) as CleanRL's continuous-action script r
 actor and critic networks, a state-independent log standard deviation, advantages normalised per
 minibatch, the learning rate annealed linearly (to 0, or to a floor: ``final_learning_rate``).
 
-A task whose unknowns must be read from the observation stream needs a policy with memory; two kinds:
+A task whose unknowns must be read from the observation stream needs a policy with memory; three kinds:
 
 - ``history = H``: actor and critic see the last H observations side by side (zeros before the
   episode's first), a wrapper of the observation stream in the loop's carry (:class:`Memory`);
@@ -17,7 +17,12 @@ A task whose unknowns must be read from the observation stream needs a policy wi
   what predicts the return (separate networks did better in Andrychowicz et al. 2021's study of
   on-policy choices), and the exported actor stands alone.
 
-Both may be combined; ``history = 1, recurrent = 0`` is the memoryless MLP.
+- ``episode_mean``: actor and critic also see the mean of the episode's observations so far (the
+  newest included), a memory that integrates: of the commands shown in the observation, the mean is
+  what the sail needed on average, a constant force's estimate (a PI controller's integral, which a
+  window of H observations cannot form).
+
+All may be combined; ``history = 1, recurrent = 0, episode_mean = False`` is the memoryless MLP.
 
 The loop runs in chunks of updates (:func:`make_chunks`), whose state (:class:`RunState`) is all a
 run needs to continue, so ``train_jax.py`` checkpoints between chunks; the annealing reads the
@@ -65,6 +70,7 @@ class PPOConfig:
     log_std_init: float = -1.0
     history: int = 1  # observations the networks see, the newest last (1: the current one alone)
     recurrent: int = 0  # units of each network's GRU (0: none)
+    episode_mean: bool = False  # the networks also see the mean of the episode's observations so far
 
     def __post_init__(self) -> None:
         for name in ("total_timesteps", "num_envs", "num_steps", "update_epochs", "num_minibatches", "history"):
@@ -143,8 +149,9 @@ def _gru(cell: dict[str, jax.Array], hidden: jax.Array, x: jax.Array) -> jax.Arr
 
 
 def init_network(key: jax.Array, obs_size: int, action_size: int, config: PPOConfig) -> dict[str, Any]:
-    """Actor and critic for observations of ``obs_size`` entries (each sees ``config.history`` of them)."""
-    in_size = config.history * obs_size
+    """Actor and critic for observations of ``obs_size`` entries (each sees ``config.history`` of them,
+    and their episode's mean with ``config.episode_mean``)."""
+    in_size = (config.history + config.episode_mean) * obs_size
 
     def part(key: jax.Array, out_size: int, last_scale: float) -> dict[str, Any]:
         if not config.recurrent:
@@ -192,6 +199,8 @@ class Memory(NamedTuple):
     obs: jax.Array  # (N, history * D): the last observations, the newest last, zeros before the episode's first
     start: jax.Array  # (N,): the newest observation is its episode's first
     hidden: dict[str, jax.Array | None]  # per part, its GRU's state (N, R) before the newest observation
+    mean: jax.Array | None  # (N, D) with episode_mean: the mean of the episode's observations, the newest included
+    seen: jax.Array | None  # (N,) with episode_mean: how many observations that mean is of
 
     @classmethod
     def first(cls, obs: jax.Array, config: PPOConfig) -> Memory:
@@ -199,15 +208,25 @@ class Memory(NamedTuple):
         count, size = obs.shape
         zeros = jnp.zeros((count, config.recurrent), jnp.float32) if config.recurrent else None
         hidden = {part: zeros for part in PARTS}
-        empty = cls(jnp.zeros((count, config.history * size), obs.dtype), jnp.ones(count, bool), hidden)
+        mean, seen = (jnp.zeros_like(obs), jnp.zeros(count, obs.dtype)) if config.episode_mean else (None, None)
+        empty = cls(jnp.zeros((count, config.history * size), obs.dtype), jnp.ones(count, bool), hidden, mean, seen)
         return empty.next(obs, empty.start, hidden)
+
+    @property
+    def inputs(self) -> jax.Array:
+        """What the networks see: the last observations, then the episode's mean if kept."""
+        return self.obs if self.mean is None else jnp.concatenate([self.obs, self.mean], axis=-1)
 
     def next(self, obs: jax.Array, start: jax.Array, hidden: dict[str, jax.Array | None]) -> Memory:
         """After a step: ``obs`` (N, D) appended and the oldest dropped, all older ones zeroed where
-        ``start`` (the env reset there: its autoreset's first observation); ``hidden`` the GRUs'
-        states after the previous observation."""
+        ``start`` (the env reset there: its autoreset's first observation), and taken into the
+        episode's mean (which restarts there); ``hidden`` the GRUs' states after the previous observation."""
         kept = jnp.where(start[:, None], 0.0, self.obs)[:, obs.shape[-1]:]
-        return Memory(jnp.concatenate([kept, obs], axis=-1), start, hidden)
+        mean, seen = self.mean, self.seen
+        if mean is not None:
+            seen = jnp.where(start, 1.0, seen + 1.0)
+            mean = jnp.where(start[:, None], obs, mean + (obs - mean) / seen[:, None])
+        return Memory(jnp.concatenate([kept, obs], axis=-1), start, hidden, mean, seen)
 
 
 def _log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array) -> jax.Array:
@@ -216,7 +235,7 @@ def _log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array) -> jax.Arr
 
 
 class Transition(NamedTuple):
-    obs: jax.Array  # what the networks saw: the last ``history`` observations
+    obs: jax.Array  # what the networks saw (:attr:`Memory.inputs`)
     start: jax.Array  # that step began an episode
     action: jax.Array
     log_prob: jax.Array
@@ -277,12 +296,12 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     def env_step(carry, _):
         network, env_state, memory, key = carry
         key, act_key, step_key = jax.random.split(key, 3)
-        mean, actor_hidden = apply(network["actor"], memory.obs, memory.hidden["actor"], memory.start)
+        mean, actor_hidden = apply(network["actor"], memory.inputs, memory.hidden["actor"], memory.start)
         action = mean + jnp.exp(network["log_std"]) * jax.random.normal(act_key, mean.shape)
-        value, critic_hidden = apply(network["critic"], memory.obs, memory.hidden["critic"], memory.start)
+        value, critic_hidden = apply(network["critic"], memory.inputs, memory.hidden["critic"], memory.start)
         next_obs, env_state, reward, terminated, _, info = env.step_batch(
             jax.random.split(step_key, config.num_envs), env_state, action, env_params)
-        transition = Transition(memory.obs, memory.start, action, _log_prob(mean, network["log_std"], action),
+        transition = Transition(memory.inputs, memory.start, action, _log_prob(mean, network["log_std"], action),
                                 value[:, 0], reward.astype(jnp.float32), terminated, terminated & info["is_success"])
         memory = memory.next(next_obs, terminated, {"actor": actor_hidden, "critic": critic_hidden})
         return (network, env_state, memory, key), transition
@@ -333,7 +352,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     def update(state: RunState, _):
         state, transitions, before = rollout(state)
         memory = state.memory
-        last_value = apply(state.network["critic"], memory.obs, memory.hidden["critic"], memory.start)[0][:, 0]
+        last_value = apply(state.network["critic"], memory.inputs, memory.hidden["critic"], memory.start)[0][:, 0]
         advantages, targets = gae(transitions, last_value)
 
         def epoch(carry, _):
@@ -395,7 +414,7 @@ def success_rate(env, env_params, config: PPOConfig, actor: dict[str, Any], key:
 
     def one(carry, key):
         memory, state, success, ended = carry
-        mean, hidden = apply(actor, memory.obs, memory.hidden["actor"], memory.start)
+        mean, hidden = apply(actor, memory.inputs, memory.hidden["actor"], memory.start)
         obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state,
                                                             jnp.clip(mean, -1.0, 1.0), env_params)
         success = jnp.where(terminated & ~ended, info["is_success"], success)

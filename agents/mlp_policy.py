@@ -1,6 +1,6 @@
 """A trained tanh MLP policy played in NumPy: what ``train_jax.py`` saves (``policy.npz``), so that
 ``evaluate.py`` reports the JAX learners on the Gym envs without importing JAX. The policy may have a
-memory (:mod:`agents.jax_ppo`'s ``history`` and ``recurrent``), kept here per episode."""
+memory (:mod:`agents.jax_ppo`'s ``history``, ``recurrent`` and ``episode_mean``), kept here per episode."""
 
 from __future__ import annotations
 
@@ -25,11 +25,13 @@ def _sigmoid(x: np.ndarray) -> np.ndarray:
 class MlpPolicyAgent:
     """The deterministic action of a saved actor: ``clip(mean(obs), -1, 1)`` with tanh hidden layers,
     as :func:`agents.jax_ppo.apply` computes it: on the last ``history`` observations side by side
-    (zeros before the episode's first), and through a GRU before the last layer if the actor has one.
+    (zeros before the episode's first), followed by the mean of the episode's observations so far if
+    the actor was trained with it, and through a GRU before the last layer if the actor has one.
 
     ``policy.npz`` holds ``w0, b0, …`` (float32), ``gru_wx, gru_wh, gru_bx, gru_bh`` for a GRU, and
-    ``meta`` (a JSON string with ``env_id``, ``algo``, ``history`` and ``recurrent``: the GRU's size, 0
-    for none; files saved before policies had a memory have neither, which reads as 1 and 0).
+    ``meta`` (a JSON string with ``env_id``, ``algo``, ``history``, ``recurrent``: the GRU's size, 0
+    for none, and ``episode_mean``; files saved before policies had a memory have none of them, which
+    reads as 1, 0 and false).
 
     ``act`` takes one observation (D,) or a batch (N, D) of episodes; a policy with memory keeps it
     per episode until :meth:`reset`.
@@ -43,13 +45,14 @@ class MlpPolicyAgent:
             recurrent = self.meta.get("recurrent", 0)
             self.gru = {key: data[f"gru_{key}"].astype(np.float64) for key in GRU_ARRAYS} if recurrent else None
         self.history = int(self.meta.get("history", 1))
+        self.episode_mean = bool(self.meta.get("episode_mean", False))
         self.name = name or f"{self.meta.get('algo', 'mlp')}"
-        self.obs_size = self.layers[0][0].shape[0] // self.history
+        self.obs_size = self.layers[0][0].shape[0] // (self.history + self.episode_mean)
         self.reset()
 
     @property
     def has_memory(self) -> bool:
-        return self.history > 1 or self.gru is not None
+        return self.history > 1 or self.gru is not None or self.episode_mean
 
     def reset(self, which: np.ndarray | None = None) -> None:
         """Start afresh: every episode, or only those where ``which`` (N,) is true (the episodes an
@@ -57,6 +60,8 @@ class MlpPolicyAgent:
         if which is None:
             self._stacked: np.ndarray | None = None  # (…, history * D): the last observations, the newest last
             self._hidden: np.ndarray | None = None  # (…, R): the GRU's state after them
+            self._mean: np.ndarray | None = None  # (…, D): the mean of the episode's observations
+            self._seen: np.ndarray | None = None  # (…): how many observations that mean is of
             self._start: np.ndarray | None = None  # (…): the next observation is its episode's first
         elif self._start is not None:
             self._start[np.asarray(which, dtype=bool)] = True
@@ -73,10 +78,13 @@ class MlpPolicyAgent:
                                  "reset() before a batch of another size")
             self._stacked = np.zeros(batch + (self.history * self.obs_size,))
             self._hidden = np.zeros(batch + (len(self.gru["wh"]),)) if self.gru is not None else None
+            self._mean, self._seen = np.zeros(batch + (self.obs_size,)), np.zeros(batch)
             self._start = np.ones(batch, dtype=bool)
         fresh = self._start[..., None]
         self._stacked = np.concatenate([np.where(fresh, 0.0, self._stacked)[..., self.obs_size:], x], axis=-1)
-        x = self._stacked
+        self._seen = np.where(self._start, 1.0, self._seen + 1.0)
+        self._mean = np.where(fresh, x, self._mean + (x - self._mean) / self._seen[..., None])
+        x = np.concatenate([self._stacked, self._mean], axis=-1) if self.episode_mean else self._stacked
         for w, b in self.layers[:-1]:
             x = np.tanh(x @ w + b)
         if self.gru is not None:

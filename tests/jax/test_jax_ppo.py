@@ -76,16 +76,16 @@ def _actions(actor: dict, config: PPOConfig, obs: jax.Array, start: jax.Array) -
     """The JAX actor's deterministic actions along observations (T, N, D) whose episodes begin where
     ``start`` (T, N) (all at t = 0), as the rollout carries its memory."""
     def step(memory: Memory, inputs):
-        mean, hidden = apply(actor, memory.obs, memory.hidden["actor"], memory.start)
+        mean, hidden = apply(actor, memory.inputs, memory.hidden["actor"], memory.start)
         return memory.next(*inputs, {**memory.hidden, "actor": hidden}), mean
 
     last, means = jax.lax.scan(step, Memory.first(obs[0], config), (obs[1:], start[1:]))
-    final = apply(actor, last.obs, last.hidden["actor"], last.start)[0]
+    final = apply(actor, last.inputs, last.hidden["actor"], last.start)[0]
     return np.clip(np.concatenate([means, final[None]]), -1.0, 1.0)
 
 
 def _check_memory(tmp_path: Path, config: PPOConfig):
-    """What both kinds of memory must do; returns the run for the kind's own checks."""
+    """What every kind of memory must do; returns the run for the kind's own checks."""
     state, rollout, before, metrics = _rollout_and_training(config)
     network = state.network
     assert bool(jnp.all(jnp.isfinite(metrics["reward"])))
@@ -93,10 +93,22 @@ def _check_memory(tmp_path: Path, config: PPOConfig):
     start, done = np.asarray(rollout.start), np.asarray(rollout.done)
     assert np.array_equal(start[1:], done[:-1]) and done[:-1].any(axis=0).all()
     # its observations: the last `history`, shifted along, zeros before an episode's first
-    seen = np.asarray(rollout.obs).reshape(config.num_steps, config.num_envs, config.history, OBS)
+    window = config.history * OBS
+    seen = np.asarray(rollout.obs)[..., :window].reshape(config.num_steps, config.num_envs, config.history, OBS)
     assert not seen[start][:, :-1].any()
     np.testing.assert_array_equal(seen[1:, :, :-1][~start[1:]], seen[:-1, :, 1:][~start[1:]])
     obs = seen[:, :, -1]
+    if config.episode_mean:  # then the mean of the episode's observations so far, the newest included
+        mean = np.asarray(rollout.obs)[..., window:]
+        checked = 0
+        for env in range(config.num_envs):
+            began = None  # the step its episode began, once one begins within the rollout
+            for t in range(config.num_steps):
+                began = t if start[t, env] else began
+                if began is not None:
+                    np.testing.assert_allclose(mean[t, env], obs[began:t + 1, env].mean(axis=0), rtol=1e-5, atol=1e-6)
+                    checked += began < t
+        assert checked > 50  # steps after the start of an episode that began within the rollout
     start = start.copy()
     start[0] = True  # played from here below
     # nothing before an episode's start reaches its actions
@@ -111,7 +123,8 @@ def _check_memory(tmp_path: Path, config: PPOConfig):
     np.testing.assert_array_equal(changed[boundary:], actions[boundary:])
     # the NumPy player: the same actions, its memory reset by evaluate.py's reset(which)
     save_policy(tmp_path / "policy.npz", actor_arrays(network),
-                {"env_id": "LightSail-v0", "algo": "jax_ppo", "history": config.history, "recurrent": config.recurrent})
+                {"env_id": "LightSail-v0", "algo": "jax_ppo", "history": config.history, "recurrent": config.recurrent,
+                 "episode_mean": config.episode_mean})
     agent = MlpPolicyAgent(tmp_path / "policy.npz")
     played = []
     for t in range(config.num_steps):
@@ -127,6 +140,10 @@ def _check_memory(tmp_path: Path, config: PPOConfig):
 
 def test_a_history_policy_sees_the_last_observations_of_its_episode(tmp_path: Path) -> None:
     _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=3))
+
+
+def test_an_episode_mean_policy_sees_the_mean_of_its_episode_so_far(tmp_path: Path) -> None:
+    _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=2, episode_mean=True))
 
 
 def test_a_recurrent_policy_carries_its_gru_through_the_rollout_and_the_update(tmp_path: Path) -> None:
@@ -254,7 +271,8 @@ def test_evaluate_reports_a_jax_policy_beside_the_baselines(tmp_path: Path) -> N
         runs[name] = tmp_path / "runs" / name
         runs[name].mkdir(parents=True)
         save_policy(runs[name] / "policy.npz", actor_arrays(network),
-                    {"env_id": "LightSail-v0", "algo": "jax_ppo", "history": config.history, "recurrent": config.recurrent})
+                    {"env_id": "LightSail-v0", "algo": "jax_ppo", "history": config.history, "recurrent": config.recurrent,
+                 "episode_mean": config.episode_mean})
     run = runs["LightSail-v0-jax_ppo-0"]
     done = subprocess.run([sys.executable, "evaluate.py", "--agent", "passive", "--agent", str(run / "policy.npz"),
                            "--agent", str(runs["memory"] / "policy.npz"), "--episodes", "4", "--out",
