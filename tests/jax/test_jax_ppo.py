@@ -138,12 +138,8 @@ def _check_memory(tmp_path: Path, config: PPOConfig):
     return state, rollout, before
 
 
-def test_a_history_policy_sees_the_last_observations_of_its_episode(tmp_path: Path) -> None:
-    _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=3))
-
-
-def test_an_episode_mean_policy_sees_the_mean_of_its_episode_so_far(tmp_path: Path) -> None:
-    _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=2, episode_mean=True))
+def test_a_history_policy_sees_the_last_observations_of_its_episode_and_their_mean(tmp_path: Path) -> None:
+    _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=3, episode_mean=True))  # the GRU's: without
 
 
 def test_a_recurrent_policy_carries_its_gru_through_the_rollout_and_the_update(tmp_path: Path) -> None:
