@@ -118,6 +118,8 @@ def build_parser() -> cli.Parser:
                         help="units of a GRU in actor and critic (0: none)")
     parser.add_argument("--episode-mean", action="store_true",
                         help="the networks also see the mean of the episode's observations so far")
+    parser.add_argument("--clipped-likelihood", action="store_true",
+                        help="PPO's likelihood of the clipped action the env plays (Fujita & Maeda 2018)")
     parser.add_argument("--checkpoint-every", type=cli.positive_int, metavar="UPDATES",
                         help=f"updates per compiled chunk, after each of which the run is checkpointed (default "
                              f"{CHECKPOINT_EVERY}; a resumed run keeps its own unless given)")

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy import stats
 
 jax = pytest.importorskip("jax")
 pytest.importorskip("optax")
@@ -143,14 +144,16 @@ def test_a_history_policy_sees_the_last_observations_of_its_episode_and_their_me
 
 
 def test_a_recurrent_policy_carries_its_gru_through_the_rollout_and_the_update(tmp_path: Path) -> None:
-    config = dataclasses.replace(MEMORY_RUN, recurrent=8, history=2)
+    config = dataclasses.replace(MEMORY_RUN, recurrent=8, history=2, clipped_likelihood=True)
     state, rollout, hidden = _check_memory(tmp_path, config)
+    assert np.abs(np.asarray(rollout.action)).max() == 1.0  # the clipped actions the env played, some at a bound
     assert not np.asarray(rollout.start[0]).all()  # the rollout continues episodes: the GRUs' states before it count
     # the update re-runs the GRU over each environment's sequence from the state before it, with the
     # rollout's resets: the log-probabilities of the rollout's actions come back
     network = state.network
     mean = _unroll(network["actor"], hidden["actor"], rollout.obs, rollout.start)
-    np.testing.assert_allclose(_log_prob(mean, network["log_std"], rollout.action), rollout.log_prob, atol=1e-4)
+    np.testing.assert_allclose(_log_prob(mean, network["log_std"], rollout.action, clipped=True), rollout.log_prob,
+                               atol=1e-4)
     value = _unroll(network["critic"], hidden["critic"], rollout.obs, rollout.start)[..., 0]
     np.testing.assert_allclose(value, rollout.value, atol=1e-5)
     # a GRU's reset: the state before an episode's first input is not read
@@ -160,6 +163,18 @@ def test_a_recurrent_policy_carries_its_gru_through_the_rollout_and_the_update(t
     stale = apply(actor, x, jnp.full((3, 8), 0.5), jnp.array([True, True, False]))
     np.testing.assert_array_equal(fresh[0][:2], stale[0][:2])
     assert not np.array_equal(fresh[0][2], stale[0][2])
+
+
+def test_the_clipped_likelihood_is_the_clipped_gaussians() -> None:
+    """Inside the box the Gaussian's density, at a bound the mass beyond it (SciPy's normal as the
+    reference); the default is the density alone, wherever the action."""
+    mean, std = np.array([0.5, -0.2, 1.3]), np.array([0.3, 0.5, 0.2])
+    action = np.array([1.0, -1.0, 0.2])
+    expected = (stats.norm.logsf(1.0, 0.5, 0.3) + stats.norm.logcdf(-1.0, -0.2, 0.5)
+                + stats.norm.logpdf(0.2, 1.3, 0.2))
+    args = jnp.asarray(mean), jnp.log(jnp.asarray(std)), jnp.asarray(action)
+    np.testing.assert_allclose(_log_prob(*args, clipped=True), expected, rtol=1e-12)
+    np.testing.assert_allclose(_log_prob(*args), stats.norm.logpdf(action, mean, std).sum(), rtol=1e-12)
 
 
 def test_bad_settings_are_refused_naming_them() -> None:
