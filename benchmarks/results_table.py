@@ -8,8 +8,9 @@ Each task's row comes from one set of 200 paired episodes (seeds 100000–100199
 the kept benchmark grids (``agents.grid export``: :data:`GRIDS`) and, for the uncertain-model tasks,
 whose learners were evaluated by ``benchmarks.ceiling``, its results (:data:`UNCERTAIN`). A grid cell
 played again (``agents.grid redo``) counts by its latest trial, as in ``agents.grid render``. Learners
-are the grids' ``tuned`` cells (the shipped YAML; seeds 0–2) and the runs :data:`UNCERTAIN_LEARNERS`
-names; success is the mean ± the standard deviation over seeds (``np.std``, as the grid's tables);
+are the grids' ``tuned`` cells (the shipped YAML; seeds 0–2), the runs :data:`UNCERTAIN_LEARNERS`
+names, and those :data:`BESIDE_GRIDS` names beside a grid's (evaluated by ``benchmarks.ceiling`` on the
+grid's episodes: its LQG must play them as the grid's did); success is the mean ± the standard deviation over seeds (``np.std``, as the grid's tables);
 the paired difference to the best classical design averages a learner's seeds per episode, with a
 95 % bootstrap interval (``agents.evaluation.paired_difference``). The full tables these rows come
 from: docs/learners.md and docs/tasks.md.
@@ -17,10 +18,13 @@ from: docs/learners.md and docs/tasks.md.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
 import numpy as np
 
 from agents import cli
@@ -58,6 +62,12 @@ UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
     ("PPO (the study's trial)", False, ("runs/tuning/tune-ppo-LightSailUncertain-v1/trial-1/best_model.zip",)),
     ("PPO (v1's settings)", False, ("runs/tuned/ppo-uncertain-v1-from-v1-seed0/best_model.zip",)),
 )}
+#: Learners of a grid's task evaluated apart (the JAX backend's), per task: ``benchmarks.ceiling``'s
+#: results file and the learners as in :data:`UNCERTAIN_LEARNERS`.
+BESIDE_GRIDS = {"LightSail3DRealistic-v1": (ROOT / "benchmarks" / "results" / "learners_3d_realistic_v1.json", (
+    ("JAX PPO, 8-observation history and the episode's mean (10M steps, CPU; its curve's best)", False,
+     ("runs/jax/3d-realistic-v1-history8-mean-mb32-10M-seed0/best_policy.npz",)),
+))}
 SECTION = "results-table"
 HEADER = ("| task | passive | LQR | LQG | best classical design | best learner (seeds) | "
           "learner vs that design (paired, 95 % CI) | ceiling (a bound) |\n"
@@ -116,9 +126,22 @@ def uncertain_task(path: Path, env: str) -> Task:
     name, the learners of :data:`UNCERTAIN_LEARNERS` by their runs."""
     agents = json.loads(path.read_text())[env]["agents"]
     classical = {name: np.array(row["success"], bool) for name, row in agents.items() if not name.endswith((".zip", ".npz"))}
-    learners = [Learner(label, residual, np.array([agents[run]["success"] for run in runs], bool))
-                for label, residual, runs in UNCERTAIN_LEARNERS[env]]
-    return Task(classical, learners, 0, str(path.relative_to(ROOT)))
+    return Task(classical, kept_learners(agents, UNCERTAIN_LEARNERS[env]), 0, str(path.relative_to(ROOT)))
+
+
+def kept_learners(agents: dict[str, Any], learners: tuple) -> list[Learner]:
+    """The ``learners`` (label, residual, runs) among ``benchmarks.ceiling``'s rows ``agents``."""
+    return [Learner(label, residual, np.array([agents[run]["success"] for run in runs], bool))
+            for label, residual, runs in learners]
+
+
+def beside_grid(task: Task, env: str, path: Path, learners: tuple) -> Task:
+    """A grid's ``task`` with the ``learners`` evaluated apart in ``path`` (ValueError if that file's LQG
+    did not play the grid's episodes as the grid did)."""
+    agents = json.loads(path.read_text())[env]["agents"]
+    if not np.array_equal(np.array(agents["lqg"]["success"], bool), task.classical["lqg"]):
+        raise ValueError(f"{path.relative_to(ROOT)}: its LQG's episodes are not the grid's of {env}")
+    return dataclasses.replace(task, learners=[*task.learners, *kept_learners(agents, learners)])
 
 
 def kept_tasks() -> dict[str, Task]:
@@ -128,6 +151,8 @@ def kept_tasks() -> dict[str, Task]:
         tasks.update(grid_tasks(path))
     for env in UNCERTAIN_TASKS:
         tasks[env] = uncertain_task(UNCERTAIN, env)
+    for env, (path, learners) in BESIDE_GRIDS.items():
+        tasks[env] = beside_grid(tasks[env], env, path, learners)
     return tasks
 
 

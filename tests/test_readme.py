@@ -4,6 +4,7 @@ registered id once; the paths and ``python -m`` modules that the README and the 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import subprocess
@@ -94,6 +95,11 @@ def kept_rates(env: str) -> dict[str, list[float]]:
                     agent = trial["params"]["agent"]
                     name = results_table.NAMES[agent] if trial["params"]["hyperparameters"] == "tuned" else agent
                     rates.setdefault(name, []).append(trial["user_attrs"]["summary"]["success_rate"])
+            if env in results_table.BESIDE_GRIDS:  # learners evaluated apart, on the same episodes
+                beside, learners = results_table.BESIDE_GRIDS[env]
+                agents = json.loads(beside.read_text())[env]["agents"]
+                for label, _, runs in learners:
+                    rates[label] = [agents[run]["success_rate"] for run in runs]
             return rates
     raise AssertionError(f"no kept result holds {env}")
 
@@ -118,6 +124,20 @@ def test_each_rate_in_the_results_table_is_its_kept_result() -> None:
             assert mean == f"{100 * np.mean(rates[label]):.1f}", (cells[0], label)
         bounds = [rates[name][0] for name in results_table.BOUNDS if name in rates] or rates["lqr"]
         assert cells[7].startswith(f"{100 * max(bounds):.1f} %"), cells[0]
+
+
+def test_a_learner_beside_a_grid_counts_only_on_the_grids_episodes() -> None:
+    """The file of learners evaluated apart must hold the grid's LQG outcomes, episode by episode: one
+    episode's outcome changed in the grid's LQG, and the row is refused."""
+    env = next(iter(results_table.BESIDE_GRIDS))
+    path, learners = results_table.BESIDE_GRIDS[env]
+    task = results_table.grid_tasks(results_table.GRIDS["realistic"])[env]
+    assert len(results_table.beside_grid(task, env, path, learners).learners) == len(task.learners) + len(learners)
+    lqg = task.classical["lqg"].copy()
+    lqg[0] = not lqg[0]
+    other = dataclasses.replace(task, classical={**task.classical, "lqg": lqg})
+    with pytest.raises(ValueError, match="not the grid's"):
+        results_table.beside_grid(other, env, path, learners)
 
 
 def test_every_registered_id_is_in_the_task_table_or_named_as_kept_for_comparison() -> None:
