@@ -25,11 +25,12 @@ A task whose unknowns must be read from the observation stream needs a policy wi
 All may be combined; ``history = 1, recurrent = 0, episode_mean = False`` is the memoryless MLP.
 
 The env clips each action to [-1, 1]. By default, as CleanRL's and PureJaxRL's PPO, the likelihood
-is the Gaussian's at the unclipped sample, blind to the clip: nothing then holds the mean inside the
-box, and here it drifts out (the final actor of a 10⁷-step run on ``LightSailUncertain-v2`` asked for
-more than the box 43 % of the time, its best one 22 %; docs/learners.md). ``clipped_likelihood``
-uses the likelihood of the action the env plays instead, the clipped Gaussian's: the density inside
-the box, the tail's mass at a bound (the clipped action policy gradient, Fujita & Maeda 2018).
+is the Gaussian's at the unclipped sample, blind to the clip: the objective is then not the policy
+the env plays, and here the deterministic actor got worse late in a run while its mean drifted out
+of the box (a 10⁷-step run on ``LightSailUncertain-v2``: beyond the box 22 % of the time at its
+best, 43 % at the end, its success 77 % → 31 %; docs/learners.md). ``clipped_likelihood`` uses the
+likelihood of the action the env plays instead, the clipped Gaussian's: the density inside the box,
+the tail's mass at a bound (the clipped action policy gradient, Fujita & Maeda 2018).
 
 The loop runs in chunks of updates (:func:`make_chunks`), whose state (:class:`RunState`) is all a
 run needs to continue, so ``train_jax.py`` checkpoints between chunks; the annealing reads the
