@@ -75,6 +75,8 @@ UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
 BESIDE_GRIDS = {"LightSail3DRealistic-v1": (ROOT / "benchmarks" / "results" / "learners_3d_realistic_v1.json", (
     ("JAX PPO, 8-observation history and the episode's mean (10M steps, CPU; its curve's best)", False,
      ("runs/jax/3d-realistic-v1-history8-mean-mb32-10M-seed0/best_policy.npz",)),
+    ("JAX PPO, the same settings over 4M steps", False,
+     tuple(f"runs/jax/3d-realistic-v1-mean-mb32-4M-seed{seed}/best_policy.npz" for seed in range(5))),
 ))}
 SECTION = "results-table"
 HEADER = ("| task | passive | LQR | LQG | best classical design | best learner (seeds) | "
