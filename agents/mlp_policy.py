@@ -81,10 +81,13 @@ class MlpPolicyAgent:
             self._mean, self._seen = np.zeros(batch + (self.obs_size,)), np.zeros(batch)
             self._start = np.ones(batch, dtype=bool)
         fresh = self._start[..., None]
-        self._stacked = np.concatenate([np.where(fresh, 0.0, self._stacked)[..., self.obs_size:], x], axis=-1)
-        self._seen = np.where(self._start, 1.0, self._seen + 1.0)
-        self._mean = np.where(fresh, x, self._mean + (x - self._mean) / self._seen[..., None])
-        x = np.concatenate([self._stacked, self._mean], axis=-1) if self.episode_mean else self._stacked
+        newest = x
+        self._stacked = np.concatenate([np.where(fresh, 0.0, self._stacked)[..., self.obs_size:], newest], axis=-1)
+        x = self._stacked
+        if self.episode_mean:  # kept only for an actor that sees it: this runs on every step
+            self._seen = np.where(self._start, 1.0, self._seen + 1.0)
+            self._mean = np.where(fresh, newest, self._mean + (newest - self._mean) / self._seen[..., None])
+            x = np.concatenate([x, self._mean], axis=-1)
         for w, b in self.layers[:-1]:
             x = np.tanh(x @ w + b)
         if self.gru is not None:
