@@ -352,6 +352,10 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
         policy_loss = -jnp.minimum(ratio * advantages,
                                    jnp.clip(ratio, 1 - config.clip_coef, 1 + config.clip_coef) * advantages).mean()
         value_loss = 0.5 * jnp.mean((value - targets) ** 2)
+        # The Gaussian's entropy before the clip, also with the clipped likelihood: a bonus on the spread
+        # alone. The clipped Gaussian's would add a density's entropy to the bounds' masses' (no common
+        # measure): below σ = (2πe)^-½ ≈ 0.24 a mean far beyond a bound would score higher than any
+        # spread inside the box, and the bonus would push the actor out of it.
         entropy = jnp.sum(network["log_std"] + 0.5 * jnp.log(2 * jnp.pi * jnp.e))
         return policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
 
