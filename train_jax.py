@@ -12,8 +12,9 @@ the run starts and holding:
     run.json         the settings, the device, the wall time with compilation, the success rate of each
                      rollout's ended episodes so far, the learning curve ("curve": after every chunk, env
                      steps and the deterministic policy's success on the same 256 fresh episodes of the JAX
-                     env), "status": "running"; at the end "finished" and the deterministic policy's
-                     success on 1,000 other fresh episodes
+                     env; "beyond_box": on those episodes, the share of the actions it asked for beyond
+                     [-1, 1], which the env clips), "status": "running"; at the end "finished" and the
+                     deterministic policy's success on 1,000 other fresh episodes
     policy.npz       the deterministic actor after the last chunk (at the end: the trained one), which
                      evaluate.py --agent runs/latest/policy.npz plays on the Gym env (with its memory, if it
                      has one: --history, --recurrent, --episode-mean)
@@ -47,7 +48,7 @@ import numpy as np
 
 import sail_env.jax
 from agents import cli
-from agents.jax_ppo import PPOConfig, RunState, actor_arrays, make_chunks, success_rate
+from agents.jax_ppo import PPOConfig, RunState, actor_arrays, make_chunks, play_deterministic
 from agents.mlp_policy import POLICY_FILE, save_policy, write_npz
 from agents.training import new_run_dir, point_latest
 from sail_env.jax.env import EnvParams, SailEnv
@@ -153,10 +154,12 @@ def run_chunk(state: RunState, env_id: str, config: PPOConfig, updates: int) -> 
 
 
 @functools.partial(jax.jit, static_argnames=("env_id", "config", "episodes"))
-def deterministic_success(actor: dict, env_id: str, config: PPOConfig, episodes: int, seed: int) -> jax.Array:
-    """Each seed's deterministic success on the same ``episodes`` fresh episodes of the JAX env (key ``seed``)."""
+def deterministic_play(actor: dict, env_id: str, config: PPOConfig, episodes: int,
+                       seed: int) -> tuple[jax.Array, jax.Array]:
+    """Each seed's deterministic success on the same ``episodes`` fresh episodes of the JAX env (key
+    ``seed``), and the share of its actions beyond the box (:func:`agents.jax_ppo.play_deterministic`)."""
     env, params = task(env_id)
-    return jax.vmap(lambda one: success_rate(env, params, config, one, jax.random.key(seed), episodes))(actor)
+    return jax.vmap(lambda one: play_deterministic(env, params, config, one, jax.random.key(seed), episodes))(actor)
 
 
 def save_policies(runs_dir: Path, progress: dict[str, Any], state: RunState, config: PPOConfig,
@@ -209,7 +212,7 @@ def load_checkpoint(path: Path) -> tuple[RunState, dict[str, Any]]:
 
 def write_runs(runs_dir: Path, progress: dict[str, Any], status: str, final: np.ndarray | None = None) -> None:
     """Each seed's run.json: the run's ``progress`` with that seed's own entries."""
-    per_seed = ("success_per_update", "curve", "best")
+    per_seed = ("success_per_update", "curve", "beyond_box", "best")
     shared = {key: value for key, value in progress.items() if key != "seeds" and key not in per_seed}
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
         record = {"seed": seed, "seeds_trained_together": len(progress["seeds"]), "status": status, **shared,
@@ -322,11 +325,14 @@ def main(argv: list[str] | None = None) -> int:
             for row, curve in enumerate(success):
                 progress["success_per_update"][row] += [None if np.isnan(v) else float(v) for v in curve]
             progress["updates"] += updates
-            curve = np.asarray(deterministic_success(state.network["actor"], env_id, config, CURVE_EPISODES, CURVE_KEY))
+            curve, beyond = map(np.asarray, deterministic_play(state.network["actor"], env_id, config,
+                                                               CURVE_EPISODES, CURVE_KEY))
             best, improved = progress.setdefault("best", [None for _ in progress["seeds"]]), []
-            for row, rate in enumerate(curve):  # runs begun before the curve was kept start it at their resume
+            for row, rate in enumerate(curve):  # runs begun before a record was kept start it at their resume
                 point = [progress["updates"] * config.batch_size, float(rate)]
                 progress.setdefault("curve", [[] for _ in progress["seeds"]])[row].append(point)
+                progress.setdefault("beyond_box", [[] for _ in progress["seeds"]])[row].append(
+                    [point[0], float(beyond[row])])
                 if best[row] is None or point[1] > best[row][1]:
                     best[row] = point
                     improved.append(row)
@@ -336,14 +342,15 @@ def main(argv: list[str] | None = None) -> int:
             save(state)
             speed = len(progress["seeds"]) * updates * config.batch_size / trained_s  # the first chunk's: with compiling
             print(f"update {progress['updates']} of {config.num_updates}: {chunk_summary(success)}; deterministic "
-                  f"{', '.join(f'{rate:.1%}' for rate in curve)} on {CURVE_EPISODES} episodes ({speed:,.0f} "
+                  f"{', '.join(f'{rate:.1%}' for rate in curve)} on {CURVE_EPISODES} episodes (actions beyond "
+                  f"the box {', '.join(f'{share:.0%}' for share in beyond)}; {speed:,.0f} "
                   f"env-steps/s training, {scored_s:.0f} s scoring)", flush=True)
     except KeyboardInterrupt:
         print(f"interrupted: {progress['updates']} of {config.num_updates} updates checkpointed; continue with "
               f"python train_jax.py --resume {runs_dir / progress['runs'][0]}", file=sys.stderr)
         return 130
 
-    final = np.asarray(deterministic_success(state.network["actor"], env_id, config, EVAL_EPISODES, EVAL_KEY))
+    final = np.asarray(deterministic_play(state.network["actor"], env_id, config, EVAL_EPISODES, EVAL_KEY)[0])
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
         best = progress.get("best", [None] * len(progress["seeds"]))[row]  # none: resumed after its last chunk
         print(f"seed {seed}: {float(final[row]):.1%} success on {EVAL_EPISODES:,} JAX episodes -> "

@@ -429,23 +429,29 @@ def actor_arrays(network: dict[str, Any]) -> dict[str, np.ndarray]:
     return arrays
 
 
-def success_rate(env, env_params, config: PPOConfig, actor: dict[str, Any], key: jax.Array,
-                 episodes: int) -> jax.Array:
-    """The deterministic actor's success rate over ``episodes`` fresh episodes of the JAX env (each
-    environment's first episode counts; its autoreset starts another, not counted)."""
+def play_deterministic(env, env_params, config: PPOConfig, actor: dict[str, Any], key: jax.Array,
+                       episodes: int) -> tuple[jax.Array, jax.Array]:
+    """The deterministic actor on ``episodes`` fresh episodes of the JAX env (each environment's first
+    episode counts; its autoreset starts another, not counted): its success rate, and the share of the
+    actions it asked for (each component, each step) beyond [-1, 1], which the env clips. That share
+    is how far the actor's mean has left the box, which a policy whose deterministic play falls late in
+    a run does (docs/learners.md)."""
     reset_key, steps_key = jax.random.split(key)
     obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(reset_key, episodes), env_params)
 
     def one(carry, key):
-        memory, state, success, ended = carry
+        memory, state, success, ended, beyond = carry
         mean, hidden = apply(actor, memory.inputs, memory.hidden["actor"], memory.start)
+        beyond = beyond + jnp.where(ended[:, None], 0.0, (jnp.abs(mean) > 1.0).astype(float)).sum(0)
         obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state,
                                                             jnp.clip(mean, -1.0, 1.0), env_params)
         success = jnp.where(terminated & ~ended, info["is_success"], success)
         memory = memory.next(obs, terminated, {**memory.hidden, "actor": hidden})
-        return (memory, state, success, ended | terminated), None
+        return (memory, state, success, ended | terminated, beyond), jnp.sum(~ended)
 
-    start = (Memory.first(obs, config), state, jnp.zeros(episodes, bool), jnp.zeros(episodes, bool))
+    action_size = env.action_space(env_params).shape[0]
+    start = (Memory.first(obs, config), state, jnp.zeros(episodes, bool), jnp.zeros(episodes, bool),
+             jnp.zeros(action_size))
     keys = jax.random.split(steps_key, env_params.max_steps_in_episode)
-    (_, _, success, _), _ = jax.lax.scan(one, start, keys)
-    return success.mean()
+    (_, _, success, _, beyond), playing = jax.lax.scan(one, start, keys)
+    return success.mean(), beyond.sum() / (playing.sum() * action_size)

@@ -22,7 +22,7 @@ import jax.numpy as jnp  # noqa: E402
 
 import sail_env.jax  # noqa: E402
 from agents.jax_ppo import (Memory, PPOConfig, _log_prob, _unroll, actor_arrays, apply, init_network,  # noqa: E402
-                            learning_rate_at, make_chunks, make_train)
+                            learning_rate_at, make_chunks, make_train, play_deterministic)
 from agents.mlp_policy import MlpPolicyAgent, save_policy  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -177,6 +177,22 @@ def test_the_clipped_likelihood_is_the_clipped_gaussians() -> None:
     np.testing.assert_allclose(_log_prob(*args), stats.norm.logpdf(action, mean, std).sum(), rtol=1e-12)
 
 
+def test_the_deterministic_play_counts_the_actions_beyond_the_box() -> None:
+    """An actor that asks for a constant action (zero weights, a bias): every component beyond the box,
+    or none."""
+    env, params = sail_env.jax.make("LightSail-v0")
+    config = PPOConfig()
+    actor = init_network(jax.random.key(0), OBS, 1, config)["actor"]
+    last = {"w": jnp.zeros_like(actor["layers"][-1]["w"]), "b": jnp.zeros_like(actor["layers"][-1]["b"])}
+    shares = {}
+    for bias in (0.0, 0.9, -1.1, 3.0):
+        constant = {**actor, "layers": [*actor["layers"][:-1], {**last, "b": last["b"] + bias}]}
+        success, share = play_deterministic(env, params, config, constant, jax.random.key(1), 64)
+        assert 0.0 <= float(success) <= 1.0
+        shares[bias] = float(share)
+    assert shares == {0.0: 0.0, 0.9: 0.0, -1.1: 1.0, 3.0: 1.0}
+
+
 def test_bad_settings_are_refused_naming_them() -> None:
     with pytest.raises(ValueError, match="num_minibatches"):
         PPOConfig(num_envs=3, num_steps=3, num_minibatches=2)
@@ -246,6 +262,7 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
     with np.load(run / "policy.npz") as snapshot:  # the policy after the chunk that finished, playable
         assert json.loads(str(snapshot["meta"]))["timesteps"] == record["steps_per_update"]
     assert len(record["curve"]) == 1 and record["curve"][0][0] == record["steps_per_update"]
+    assert record["beyond_box"][0][0] == record["steps_per_update"] and 0 <= record["beyond_box"][0][1] <= 1
     assert train_jax.main(["--resume", str(run), "--checkpoint-every", "1"]) == 0
     for seed in (0, 1):
         whole, parts = (tmp_path / kind / f"LightSail-v0-jax_ppo-{seed}" for kind in ("whole", "parts"))
