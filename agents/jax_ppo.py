@@ -30,7 +30,11 @@ the env plays, and here the deterministic actor got worse late in a run while it
 of the box (a 10⁷-step run on ``LightSailUncertain-v2``: beyond the box 22 % of the time at its
 best, 43 % at the end, its success 77 % → 31 %; docs/learners.md). ``clipped_likelihood`` uses the
 likelihood of the action the env plays instead, the clipped Gaussian's: the density inside the box,
-the tail's mass at a bound (the clipped action policy gradient, Fujita & Maeda 2018).
+the tail's mass at a bound (the clipped action policy gradient, Fujita & Maeda 2018). With it, the
+runs' deterministic actors still drifted out of the box as they fell (five seeds of the uncertain task,
+the 3D task); ``tanh_mean`` keeps the actor's mean inside it (the Gaussian's mean is the tanh of the
+last layer; the sample is still clipped, so a bound keeps its mass), and the deterministic action
+``mean`` then needs no clip.
 
 The loop runs in chunks of updates (:func:`make_chunks`), whose state (:class:`RunState`) is all a
 run needs to continue, so ``train_jax.py`` checkpoints between chunks; the annealing reads the
@@ -80,6 +84,7 @@ class PPOConfig:
     recurrent: int = 0  # units of each network's GRU (0: none)
     episode_mean: bool = False  # the networks also see the mean of the episode's observations so far
     clipped_likelihood: bool = False  # the likelihood of the clipped action the env plays (Fujita & Maeda 2018)
+    tanh_mean: bool = False  # the actor's mean is the tanh of its last layer: inside [-1, 1]
 
     def __post_init__(self) -> None:
         for name in ("total_timesteps", "num_envs", "num_steps", "update_epochs", "num_minibatches", "history"):
@@ -187,6 +192,11 @@ def apply(part: dict[str, Any], x: jax.Array, hidden: jax.Array | None,
         hidden = _gru(part["gru"], jnp.where(start[..., None], 0.0, hidden), x)
         x = hidden
     return x @ layers[-1]["w"] + layers[-1]["b"], hidden
+
+
+def _bounded(mean: jax.Array, config: PPOConfig) -> jax.Array:
+    """The actor's output as the Gaussian's mean: squashed into (-1, 1) with ``config.tanh_mean``."""
+    return jnp.tanh(mean) if config.tanh_mean else mean
 
 
 def _unroll(part: dict[str, Any], hidden: jax.Array | None, x: jax.Array, start: jax.Array) -> jax.Array:
@@ -314,6 +324,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
         network, env_state, memory, key = carry
         key, act_key, step_key = jax.random.split(key, 3)
         mean, actor_hidden = apply(network["actor"], memory.inputs, memory.hidden["actor"], memory.start)
+        mean = _bounded(mean, config)
         action = mean + jnp.exp(network["log_std"]) * jax.random.normal(act_key, mean.shape)
         if config.clipped_likelihood:
             action = jnp.clip(action, -1.0, 1.0)  # what the env plays, and what its likelihood is of
@@ -344,7 +355,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
 
     def loss(network, hidden: dict[str, jax.Array | None], batch: Transition, advantages: jax.Array,
              targets: jax.Array) -> jax.Array:
-        mean = _unroll(network["actor"], hidden["actor"], batch.obs, batch.start)
+        mean = _bounded(_unroll(network["actor"], hidden["actor"], batch.obs, batch.start), config)
         log_prob = _log_prob(mean, network["log_std"], batch.action, config.clipped_likelihood)
         value = _unroll(network["critic"], hidden["critic"], batch.obs, batch.start)[..., 0]
         ratio = jnp.exp(log_prob - batch.log_prob)
@@ -442,6 +453,7 @@ def play_deterministic(env, env_params, config: PPOConfig, actor: dict[str, Any]
     def one(carry, key):
         memory, state, success, ended, beyond = carry
         mean, hidden = apply(actor, memory.inputs, memory.hidden["actor"], memory.start)
+        mean = _bounded(mean, config)
         beyond = beyond + jnp.where(ended[:, None], 0.0, (jnp.abs(mean) > 1.0).astype(float)).sum(0)
         obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state,
                                                             jnp.clip(mean, -1.0, 1.0), env_params)

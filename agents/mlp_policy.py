@@ -23,15 +23,16 @@ def _sigmoid(x: np.ndarray) -> np.ndarray:
 
 
 class MlpPolicyAgent:
-    """The deterministic action of a saved actor: ``clip(mean(obs), -1, 1)`` with tanh hidden layers,
+    """The deterministic action of a saved actor: ``clip(mean(obs), -1, 1)`` with tanh hidden layers
+    (the mean squashed by a tanh if the actor was trained with ``tanh_mean``),
     as :func:`agents.jax_ppo.apply` computes it: on the last ``history`` observations side by side
     (zeros before the episode's first), followed by the mean of the episode's observations so far if
     the actor was trained with it, and through a GRU before the last layer if the actor has one.
 
     ``policy.npz`` holds ``w0, b0, …`` (float32), ``gru_wx, gru_wh, gru_bx, gru_bh`` for a GRU, and
     ``meta`` (a JSON string with ``env_id``, ``algo``, ``history``, ``recurrent``: the GRU's size, 0
-    for none, and ``episode_mean``; files saved before policies had a memory have none of them, which
-    reads as 1, 0 and false).
+    for none, ``episode_mean`` and ``tanh_mean``; files saved before these existed lack them, which
+    reads as 1, 0, false and false).
 
     ``act`` takes one observation (D,) or a batch (N, D) of episodes; a policy with memory keeps it
     per episode until :meth:`reset`.
@@ -46,6 +47,7 @@ class MlpPolicyAgent:
             self.gru = {key: data[f"gru_{key}"].astype(np.float64) for key in GRU_ARRAYS} if recurrent else None
         self.history = int(self.meta.get("history", 1))
         self.episode_mean = bool(self.meta.get("episode_mean", False))
+        self.tanh_mean = bool(self.meta.get("tanh_mean", False))
         self.name = name or f"{self.meta.get('algo', 'mlp')}"
         self.obs_size = self.layers[0][0].shape[0] // (self.history + self.episode_mean)
         self.reset()
@@ -94,7 +96,8 @@ class MlpPolicyAgent:
             self._hidden = x = self._gru_step(np.where(fresh, 0.0, self._hidden), x)
         self._start = np.zeros(batch, dtype=bool)
         w, b = self.layers[-1]
-        return np.clip(x @ w + b, -1.0, 1.0).astype(np.float32)
+        mean = np.tanh(x @ w + b) if self.tanh_mean else x @ w + b
+        return np.clip(mean, -1.0, 1.0).astype(np.float32)
 
     def _gru_step(self, hidden: np.ndarray, x: np.ndarray) -> np.ndarray:
         reset_x, update_x, candidate_x = np.split(x @ self.gru["wx"] + self.gru["bx"], 3, axis=-1)

@@ -82,7 +82,8 @@ def _actions(actor: dict, config: PPOConfig, obs: jax.Array, start: jax.Array) -
 
     last, means = jax.lax.scan(step, Memory.first(obs[0], config), (obs[1:], start[1:]))
     final = apply(actor, last.inputs, last.hidden["actor"], last.start)[0]
-    return np.clip(np.concatenate([means, final[None]]), -1.0, 1.0)
+    means = np.concatenate([means, final[None]])
+    return np.tanh(means) if config.tanh_mean else np.clip(means, -1.0, 1.0)
 
 
 def _check_memory(tmp_path: Path, config: PPOConfig):
@@ -125,7 +126,7 @@ def _check_memory(tmp_path: Path, config: PPOConfig):
     # the NumPy player: the same actions, its memory reset by evaluate.py's reset(which)
     save_policy(tmp_path / "policy.npz", actor_arrays(network),
                 {"env_id": "LightSail-v0", "algo": "jax_ppo", "history": config.history, "recurrent": config.recurrent,
-                 "episode_mean": config.episode_mean})
+                 "episode_mean": config.episode_mean, "tanh_mean": config.tanh_mean})
     agent = MlpPolicyAgent(tmp_path / "policy.npz")
     played = []
     for t in range(config.num_steps):
@@ -140,7 +141,8 @@ def _check_memory(tmp_path: Path, config: PPOConfig):
 
 
 def test_a_history_policy_sees_the_last_observations_of_its_episode_and_their_mean(tmp_path: Path) -> None:
-    _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=3, episode_mean=True))  # the GRU's: without
+    # with the actor's mean squashed (the NumPy player must squash it too); the GRU's test: without
+    _check_memory(tmp_path, dataclasses.replace(MEMORY_RUN, history=3, episode_mean=True, tanh_mean=True))
 
 
 def test_a_recurrent_policy_carries_its_gru_through_the_rollout_and_the_update(tmp_path: Path) -> None:
@@ -179,7 +181,7 @@ def test_the_clipped_likelihood_is_the_clipped_gaussians() -> None:
 
 def test_the_deterministic_play_counts_the_actions_beyond_the_box() -> None:
     """An actor that asks for a constant action (zero weights, a bias): every component beyond the box,
-    or none."""
+    or none; none ever with ``tanh_mean``."""
     env, params = sail_env.jax.make("LightSail-v0")
     config = PPOConfig()
     actor = init_network(jax.random.key(0), OBS, 1, config)["actor"]
@@ -191,6 +193,8 @@ def test_the_deterministic_play_counts_the_actions_beyond_the_box() -> None:
         assert 0.0 <= float(success) <= 1.0
         shares[bias] = float(share)
     assert shares == {0.0: 0.0, 0.9: 0.0, -1.1: 1.0, 3.0: 1.0}
+    squashed = dataclasses.replace(config, tanh_mean=True)
+    assert float(play_deterministic(env, params, squashed, constant, jax.random.key(1), 64)[1]) == 0.0
 
 
 def test_bad_settings_are_refused_naming_them() -> None:
