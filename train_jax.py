@@ -17,7 +17,8 @@ the run starts and holding:
                      deterministic policy's success on 1,000 other fresh episodes
     policy.npz       the deterministic actor after the last chunk (at the end: the trained one), which
                      evaluate.py --agent runs/latest/policy.npz plays on the Gym env (with its memory, if it
-                     has one: --history, --recurrent, --episode-mean; and --tanh-mean's squashing)
+                     has one: --history, --recurrent, --episode-mean; and --tanh-mean's squashing; not
+                     with --privileged-actor, whose actor sees what no env shows)
     best_policy.npz  the actor after the chunk whose curve point is the highest so far (the first of equals;
                      run.json "best": its env steps and success): the model a learner is reported with, as
                      train.py's best_model.zip, selected on the curve's episodes, apart from any evaluation's
@@ -123,6 +124,11 @@ def build_parser() -> cli.Parser:
                         help="PPO's likelihood of the clipped action the env plays (Fujita & Maeda 2018)")
     parser.add_argument("--tanh-mean", action="store_true",
                         help="the actor's mean is the tanh of its last layer, inside the box")
+    parser.add_argument("--privileged-critic", action="store_true",
+                        help="in training, the critic also sees the episode's parameter draw (the asymmetric "
+                             "actor-critic); the actor sees what any controller sees")
+    parser.add_argument("--privileged-actor", action="store_true",
+                        help="the actor sees the draw too: a diagnostic, whose policy no env can play")
     parser.add_argument("--checkpoint-every", type=cli.positive_int, metavar="UPDATES",
                         help=f"updates per compiled chunk, after each of which the run is checkpointed (default "
                              f"{CHECKPOINT_EVERY}; a resumed run keeps its own unless given)")
@@ -175,7 +181,7 @@ def save_policies(runs_dir: Path, progress: dict[str, Any], state: RunState, con
                     {"env_id": progress["env_id"], "algo": ALGO, "seed": seed,
                      "timesteps": progress["updates"] * config.batch_size, "history": config.history,
                      "recurrent": config.recurrent, "episode_mean": config.episode_mean,
-                     "tanh_mean": config.tanh_mean})
+                     "tanh_mean": config.tanh_mean, "privileged_actor": config.privileged_actor})
 
 
 def seed_keys(seeds: list[int]) -> jax.Array:

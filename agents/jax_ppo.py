@@ -24,6 +24,13 @@ A task whose unknowns must be read from the observation stream needs a policy wi
 
 All may be combined; ``history = 1, recurrent = 0, episode_mean = False`` is the memoryless MLP.
 
+On a task with spread the episode's unknowns are drawn at reset (:attr:`sail_env.jax.env.EnvParams.factors`).
+``privileged_critic`` lets the critic see them beside its memory: the asymmetric actor-critic (Pinto et
+al. 2018), whose value, no longer an average over the draws the observations cannot tell apart, gives
+each episode's advantages less noise. Only the critic sees them, and only in training: the actor, what
+is exported and played, sees what any controller sees. ``privileged_actor`` gives them to the actor too:
+a diagnostic (what the learner reaches when it need not infer them), whose actor no env can play.
+
 The env clips each action to [-1, 1]. By default, as CleanRL's and PureJaxRL's PPO, the likelihood
 is the Gaussian's at the unclipped sample, blind to the clip: the objective is then not the policy
 the env plays, and here the deterministic actor got worse late in a run while its mean drifted out
@@ -85,6 +92,8 @@ class PPOConfig:
     episode_mean: bool = False  # the networks also see the mean of the episode's observations so far
     clipped_likelihood: bool = False  # the likelihood of the clipped action the env plays (Fujita & Maeda 2018)
     tanh_mean: bool = False  # the actor's mean is the tanh of its last layer: inside [-1, 1]
+    privileged_critic: bool = False  # the critic also sees the episode's parameter factors (training only)
+    privileged_actor: bool = False  # the actor too (a diagnostic: no env shows them to a policy)
 
     def __post_init__(self) -> None:
         for name in ("total_timesteps", "num_envs", "num_steps", "update_epochs", "num_minibatches", "history"):
@@ -162,12 +171,13 @@ def _gru(cell: dict[str, jax.Array], hidden: jax.Array, x: jax.Array) -> jax.Arr
     return (1.0 - update) * candidate + update * hidden
 
 
-def init_network(key: jax.Array, obs_size: int, action_size: int, config: PPOConfig) -> dict[str, Any]:
+def init_network(key: jax.Array, obs_size: int, action_size: int, config: PPOConfig,
+                 factors: int = 0) -> dict[str, Any]:
     """Actor and critic for observations of ``obs_size`` entries (each sees ``config.history`` of them,
-    and their episode's mean with ``config.episode_mean``)."""
-    in_size = (config.history + config.episode_mean) * obs_size
-
-    def part(key: jax.Array, out_size: int, last_scale: float) -> dict[str, Any]:
+    and their episode's mean with ``config.episode_mean``), and a privileged one the ``factors``
+    parameter factors of the episode's draw."""
+    def part(key: jax.Array, out_size: int, last_scale: float, privileged: bool) -> dict[str, Any]:
+        in_size = (config.history + config.episode_mean) * obs_size + privileged * factors
         if not config.recurrent:
             return {"layers": _mlp_init(key, (in_size, *config.hidden, out_size), last_scale)}
         body_key, gru_key, head_key = jax.random.split(key, 3)
@@ -176,7 +186,8 @@ def init_network(key: jax.Array, obs_size: int, action_size: int, config: PPOCon
         return {"layers": body + head, "gru": _gru_init(gru_key, config.hidden[-1], config.recurrent)}
 
     actor_key, critic_key = jax.random.split(key)
-    return {"actor": part(actor_key, action_size, 0.01), "critic": part(critic_key, 1, 1.0),
+    return {"actor": part(actor_key, action_size, 0.01, config.privileged_actor),
+            "critic": part(critic_key, 1, 1.0, config.privileged_critic),
             "log_std": jnp.full(action_size, config.log_std_init, jnp.float32)}
 
 
@@ -197,6 +208,13 @@ def apply(part: dict[str, Any], x: jax.Array, hidden: jax.Array | None,
 def _bounded(mean: jax.Array, config: PPOConfig) -> jax.Array:
     """The actor's output as the Gaussian's mean: squashed into (-1, 1) with ``config.tanh_mean``."""
     return jnp.tanh(mean) if config.tanh_mean else mean
+
+
+def _seen(config: PPOConfig, part: str, inputs: jax.Array, factors: jax.Array) -> jax.Array:
+    """What network ``part`` sees: the memory's ``inputs``, then the episode's parameter ``factors``
+    where it is privileged (``config.privileged_actor``, ``config.privileged_critic``)."""
+    privileged = config.privileged_actor if part == "actor" else config.privileged_critic
+    return jnp.concatenate([inputs, factors], axis=-1) if privileged else inputs
 
 
 def _unroll(part: dict[str, Any], hidden: jax.Array | None, x: jax.Array, start: jax.Array) -> jax.Array:
@@ -263,6 +281,7 @@ def _log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array, clipped: b
 
 class Transition(NamedTuple):
     obs: jax.Array  # what the networks saw (:attr:`Memory.inputs`)
+    factors: jax.Array  # the episode's parameter factors, which a privileged network saw beside them
     start: jax.Array  # that step began an episode
     action: jax.Array
     log_prob: jax.Array
@@ -308,6 +327,10 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     action_size = env.action_space(env_params).shape[0]
     obs_size = env.observation_space(env_params).shape[0]
     minibatch = config.batch_size // config.num_minibatches
+    factors_size = env_params.factors.shape[-1]
+
+    def factors_of(env_state) -> jax.Array:
+        return env.draw_factors(env_state, env_params).astype(jnp.float32)
 
     optimizer = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
                             optax.adam(functools.partial(learning_rate_at, config) if config.anneal_lr
@@ -315,7 +338,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
 
     def init(key: jax.Array) -> RunState:
         key, net_key, reset_key = jax.random.split(key, 3)
-        network = init_network(net_key, obs_size, action_size, config)
+        network = init_network(net_key, obs_size, action_size, config, factors_size)
         obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(reset_key, config.num_envs), env_params)
         return RunState(network, optimizer.init(network), env_state, Memory.first(obs, config), key,
                         jnp.zeros((), jnp.int32))
@@ -323,15 +346,18 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     def env_step(carry, _):
         network, env_state, memory, key = carry
         key, act_key, step_key = jax.random.split(key, 3)
-        mean, actor_hidden = apply(network["actor"], memory.inputs, memory.hidden["actor"], memory.start)
+        factors = factors_of(env_state)
+        mean, actor_hidden = apply(network["actor"], _seen(config, "actor", memory.inputs, factors),
+                                   memory.hidden["actor"], memory.start)
         mean = _bounded(mean, config)
         action = mean + jnp.exp(network["log_std"]) * jax.random.normal(act_key, mean.shape)
         if config.clipped_likelihood:
             action = jnp.clip(action, -1.0, 1.0)  # what the env plays, and what its likelihood is of
-        value, critic_hidden = apply(network["critic"], memory.inputs, memory.hidden["critic"], memory.start)
+        value, critic_hidden = apply(network["critic"], _seen(config, "critic", memory.inputs, factors),
+                                     memory.hidden["critic"], memory.start)
         next_obs, env_state, reward, terminated, _, info = env.step_batch(
             jax.random.split(step_key, config.num_envs), env_state, action, env_params)
-        transition = Transition(memory.inputs, memory.start, action,
+        transition = Transition(memory.inputs, factors, memory.start, action,
                                 _log_prob(mean, network["log_std"], action, config.clipped_likelihood),
                                 value[:, 0], reward.astype(jnp.float32), terminated, terminated & info["is_success"])
         memory = memory.next(next_obs, terminated, {"actor": actor_hidden, "critic": critic_hidden})
@@ -355,9 +381,11 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
 
     def loss(network, hidden: dict[str, jax.Array | None], batch: Transition, advantages: jax.Array,
              targets: jax.Array) -> jax.Array:
-        mean = _bounded(_unroll(network["actor"], hidden["actor"], batch.obs, batch.start), config)
+        mean = _bounded(_unroll(network["actor"], hidden["actor"], _seen(config, "actor", batch.obs, batch.factors),
+                                batch.start), config)
         log_prob = _log_prob(mean, network["log_std"], batch.action, config.clipped_likelihood)
-        value = _unroll(network["critic"], hidden["critic"], batch.obs, batch.start)[..., 0]
+        value = _unroll(network["critic"], hidden["critic"], _seen(config, "critic", batch.obs, batch.factors),
+                        batch.start)[..., 0]
         ratio = jnp.exp(log_prob - batch.log_prob)
         advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
         policy_loss = -jnp.minimum(ratio * advantages,
@@ -387,7 +415,8 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     def update(state: RunState, _):
         state, transitions, before = rollout(state)
         memory = state.memory
-        last_value = apply(state.network["critic"], memory.inputs, memory.hidden["critic"], memory.start)[0][:, 0]
+        last_value = apply(state.network["critic"], _seen(config, "critic", memory.inputs, factors_of(state.env_state)),
+                           memory.hidden["critic"], memory.start)[0][:, 0]
         advantages, targets = gae(transitions, last_value)
 
         def epoch(carry, _):
@@ -452,7 +481,9 @@ def play_deterministic(env, env_params, config: PPOConfig, actor: dict[str, Any]
 
     def one(carry, key):
         memory, state, success, ended, beyond = carry
-        mean, hidden = apply(actor, memory.inputs, memory.hidden["actor"], memory.start)
+        factors = env.draw_factors(state, env_params).astype(jnp.float32)
+        mean, hidden = apply(actor, _seen(config, "actor", memory.inputs, factors), memory.hidden["actor"],
+                             memory.start)
         mean = _bounded(mean, config)
         beyond = beyond + jnp.where(ended[:, None], 0.0, (jnp.abs(mean) > 1.0).astype(float)).sum(0)
         obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state,

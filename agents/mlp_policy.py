@@ -32,7 +32,8 @@ class MlpPolicyAgent:
     ``policy.npz`` holds ``w0, b0, …`` (float32), ``gru_wx, gru_wh, gru_bx, gru_bh`` for a GRU, and
     ``meta`` (a JSON string with ``env_id``, ``algo``, ``history``, ``recurrent``: the GRU's size, 0
     for none, ``episode_mean`` and ``tanh_mean``; files saved before these existed lack them, which
-    reads as 1, 0, false and false).
+    reads as 1, 0, false and false). An actor trained with ``privileged_actor`` (it saw the episode's
+    parameter draw, which no env shows) is refused: ``ValueError``.
 
     ``act`` takes one observation (D,) or a batch (N, D) of episodes; a policy with memory keeps it
     per episode until :meth:`reset`.
@@ -41,6 +42,9 @@ class MlpPolicyAgent:
     def __init__(self, path: str | Path, name: str | None = None) -> None:
         with np.load(path, allow_pickle=False) as data:
             self.meta = json.loads(str(data["meta"]))
+            if self.meta.get("privileged_actor"):
+                raise ValueError(f"{path}: its actor was trained seeing the episode's parameter draw "
+                                 "(--privileged-actor), which no env shows a policy: it plays only in train_jax.py")
             count = sum(1 for key in data.files if key.startswith("w"))
             self.layers = [(data[f"w{i}"].astype(np.float64), data[f"b{i}"].astype(np.float64)) for i in range(count)]
             recurrent = self.meta.get("recurrent", 0)

@@ -165,6 +165,10 @@ class EnvParams:
     dt: jax.Array
     beam_cutoff_s: jax.Array
     cutoff_jitter_s: jax.Array
+    #: (K, F): each draw's parameter factors, the plant's ``spread_fields`` in order (multiples of the
+    #: nominal; a beam offset's factor 1 ± 1 spans its range). No episode reads them: they say what
+    #: each row of the bank is, which a learner's privileged critic sees in training (agents/jax_ppo.py).
+    factors: jax.Array
     #: A model that changes along the flight (:mod:`sail_env.jax.along`): its tables and per-draw arrays.
     along: AlongFlight | None = None
     max_steps_in_episode: int = struct.field(pytree_node=False, default=200)
@@ -274,7 +278,7 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
         state_scale=array(spec.state_scale), start_half_widths=array(spec.start_half_widths),
         sensor_std=array(spec.sensor_noise_std), push_noise=array(dist.push_noise), into_units=array(into),
         from_units=array(back), control_start_s=array(config.control_start_s), dt=array(spec.dt),
-        beam_cutoff_s=array(cutoff), cutoff_jitter_s=array(dist.cutoff_jitter_s), along=along,
+        beam_cutoff_s=array(cutoff), cutoff_jitter_s=array(dist.cutoff_jitter_s), factors=array(factors), along=along,
         max_steps_in_episode=spec.n_steps, coast_pieces=pieces, pre_pieces=pre_pieces)
 
 
@@ -787,3 +791,8 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
 
     def get_obs(self, state: EnvState, params: EnvParams | None = None, key: jax.Array | None = None) -> jax.Array:
         return self.observe_state(state, self.default_params if params is None else params)
+
+    def draw_factors(self, state: EnvState, params: EnvParams) -> jax.Array:
+        """The episode's parameter factors (:attr:`EnvParams.factors`' row of its draw): what the
+        observation hides on a task with spread, for a privileged critic in training."""
+        return params.factors[state.draw]

@@ -21,8 +21,8 @@ pytest.importorskip("optax")
 import jax.numpy as jnp  # noqa: E402
 
 import sail_env.jax  # noqa: E402
-from agents.jax_ppo import (Memory, PPOConfig, _log_prob, _unroll, actor_arrays, apply, init_network,  # noqa: E402
-                            learning_rate_at, make_chunks, make_train, play_deterministic)
+from agents.jax_ppo import (Memory, PPOConfig, _log_prob, _seen, _unroll, actor_arrays, apply,  # noqa: E402
+                            init_network, learning_rate_at, make_chunks, make_train, play_deterministic)
 from agents.mlp_policy import MlpPolicyAgent, save_policy  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,10 +58,10 @@ def test_two_seeds_train_in_one_vmap_and_the_export_acts_as_the_actor(tmp_path: 
 MEMORY_RUN = PPOConfig(total_timesteps=2 * 4 * 210, num_envs=4, num_steps=210, num_minibatches=2, update_epochs=1)
 
 
-def _rollout_and_training(config: PPOConfig):
+def _rollout_and_training(config: PPOConfig, env_id: str = "LightSail-v0"):
     """A run's two updates (network, metrics), then a third rollout: the state before it, its
     transitions and the GRUs' states it began with."""
-    env, params = sail_env.jax.make("LightSail-v0")
+    env, params = sail_env.jax.make(env_id)
     chunks = make_chunks(env, params, config)
 
     @jax.jit
@@ -165,6 +165,45 @@ def test_a_recurrent_policy_carries_its_gru_through_the_rollout_and_the_update(t
     stale = apply(actor, x, jnp.full((3, 8), 0.5), jnp.array([True, True, False]))
     np.testing.assert_array_equal(fresh[0][:2], stale[0][:2])
     assert not np.array_equal(fresh[0][2], stale[0][2])
+
+
+def test_a_privileged_critic_sees_its_episodes_draw_and_the_actor_its_observations(tmp_path: Path) -> None:
+    """The bank's factors are what its rows are: each row's axial acceleration is the nominal's over
+    its total mass's factor. The critic sees its episode's row beside its memory (the row changes
+    only where an episode starts), in the update as in the rollout; the actor, what is exported, sees
+    the observations alone; an actor that saw the draw is refused by the NumPy player."""
+    env, params = sail_env.jax.make("LightSailRealistic-v0")
+    config, plant, factors = env.spec.config, env.spec.plant, np.asarray(params.factors)
+    assert factors.shape == (sail_env.jax.env.DRAWS, len(plant.spread_fields))
+    assert np.ptp(factors, axis=0).min() > 0.19  # each factor spread over its ±10 %
+    mass_factor = (factors[:, 0] * config.sail_mass_kg + factors[:, 1] * config.craft_mass_kg) / config.total_mass_kg
+    nominal = plant.params(np.ones((1, plant.n_factors))).acceleration[0]
+    np.testing.assert_allclose(np.asarray(params.acceleration) * mass_factor, nominal, rtol=1e-12)
+
+    ppo = dataclasses.replace(MEMORY_RUN, history=2, privileged_critic=True)
+    state, rollout, _, metrics = _rollout_and_training(ppo, "LightSailRealistic-v0")
+    assert bool(jnp.all(jnp.isfinite(metrics["reward"])))
+    network, obs_size = state.network, env.observation_space(params).shape[0]
+    assert network["actor"]["layers"][0]["w"].shape[0] == 2 * obs_size
+    assert network["critic"]["layers"][0]["w"].shape[0] == 2 * obs_size + plant.n_factors
+    seen, start = np.asarray(rollout.factors), np.asarray(rollout.start)
+    assert (seen[..., None, :] == factors.astype(np.float32)).all(axis=-1).any(axis=-1).all()  # rows of the bank
+    kept = (seen[1:] == seen[:-1]).all(axis=-1)
+    assert kept[~start[1:]].all() and start[1:].any() and not kept[start[1:]].any()
+    value = _unroll(network["critic"], None, _seen(ppo, "critic", rollout.obs, rollout.factors), rollout.start)[..., 0]
+    np.testing.assert_allclose(value, rollout.value, atol=1e-5)
+    blind = _unroll(network["critic"], None, _seen(ppo, "critic", rollout.obs, 0 * rollout.factors), rollout.start)
+    assert not np.allclose(blind[..., 0], rollout.value, atol=1e-3)  # the value reads the draw
+
+    save_policy(tmp_path / "policy.npz", actor_arrays(network), {"env_id": "LightSailRealistic-v0", "history": 2})
+    assert MlpPolicyAgent(tmp_path / "policy.npz").obs_size == obs_size
+    oracle = dataclasses.replace(ppo, privileged_actor=True)
+    actor = init_network(jax.random.key(0), obs_size, 1, oracle, plant.n_factors)["actor"]
+    assert 0.0 <= float(play_deterministic(env, params, oracle, actor, jax.random.key(1), 8)[0]) <= 1.0
+    save_policy(tmp_path / "oracle.npz", actor_arrays({"actor": actor}),
+                {"env_id": "LightSailRealistic-v0", "history": 2, "privileged_actor": True})
+    with pytest.raises(ValueError, match="parameter draw"):
+        MlpPolicyAgent(tmp_path / "oracle.npz")
 
 
 def test_the_clipped_likelihood_is_the_clipped_gaussians() -> None:
