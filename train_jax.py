@@ -300,6 +300,10 @@ def main(argv: list[str] | None = None) -> int:
             if args.env not in JAX_TASKS:
                 raise cli.UsageError(f"--env {args.env}: the JAX backend has {', '.join(JAX_TASKS)}")
             config, runs_dir = config_of(vars(args)), args.runs_dir
+            if (config.privileged_critic or config.privileged_actor) and len(task(args.env)[1].factors) == 1:
+                flag = "--privileged-critic" if config.privileged_critic else "--privileged-actor"
+                raise cli.UsageError(f"{flag}: {args.env} draws no parameters per episode (no spread): "
+                                     "there is nothing for it to see")
             cli.check_writable_dir(runs_dir, "--runs-dir")
     except (cli.UsageError, ValueError) as err:
         return cli.fail(err)

@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from research import coast_vs_nonlinear, delay_absorption_3d, first_try, realistic_ablation, uncertain_sizes
+from research import (coast_vs_nonlinear, delay_absorption_3d, first_try, realistic_ablation, uncertain_failures,
+                      uncertain_sizes)
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -60,3 +61,15 @@ def test_uncertain_sizes_measures_each_scale_once_and_refuses_one_past_a_limit(t
     capsys.readouterr()
     uncertain_sizes.main(["--episodes", "1", "--scales", "1", "--out", str(out)])  # measured: kept, not replayed
     assert "x1 lqg" not in capsys.readouterr().out
+
+
+def test_uncertain_failures_redraws_the_episodes_and_bins_them(tmp_path, capsys):
+    """The 200 episodes' draws are the env's (the script checks each); the learners fail where the
+    power reaching the sail is far from nominal (docs/learners.md), the offset bank not."""
+    result = uncertain_failures.main(["--out", str(tmp_path / "failures.json")])
+    power = result["factors"]["power at the sail"]
+    assert power["edges"][0] < 0.8 < 1.2 < power["edges"][-1]
+    learner = next(rates for name, rates in power["success"].items() if name.startswith("PPO clip (5"))
+    assert max(learner[0], learner[-1]) + 0.15 < min(learner[1:-1])
+    assert min(power["success"]["lqg-mm-offset"]) > 0.85
+    assert json.loads((tmp_path / "failures.json").read_text())["episodes"] == 200

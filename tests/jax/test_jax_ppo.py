@@ -251,7 +251,7 @@ def test_bad_settings_are_refused_naming_them() -> None:
     (["--no-anneal-lr", "--final-learning-rate", "1e-5"], "it needs anneal_lr"),
     (["--ent-coef", "-0.1"], "ent_coef"), (["--history", "0"], "--history"),
     (["--recurrent", "8", "--num-envs", "6", "--num-minibatches", "4"], "num_envs (6) must be a multiple"),
-    (["--resume", "runs/x"], "drop --runs-dir")])
+    (["--privileged-critic"], "LightSail-v0 draws no parameters"), (["--resume", "runs/x"], "drop --runs-dir")])
 def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                           argv: list[str], message: str) -> None:
     import train_jax
