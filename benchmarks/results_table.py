@@ -50,9 +50,11 @@ NAMES = {"passive": "passive", "lqr": "LQR", "lqg": "LQG", "lqg-mm": "`lqg-mm`",
 #: The uncertain tasks' learners in :data:`UNCERTAIN`, per task: a label, whether it corrects a
 #: classical design (a residual), and its runs (one per seed).
 UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
-    ("JAX PPO, 8-observation history and the episode's mean, the clipped likelihood (10M steps, CPU; each curve's "
-     "best)", False, tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-10M-seed{seed}/best_policy.npz"
-                           for seed in range(5))),
+    ("JAX PPO, 8-observation history and the episode's mean, the clipped likelihood, the mean squashed into the "
+     "box (10M steps, CPU; each curve's best)", False,
+     tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-tanh-10M-seed{seed}/best_policy.npz" for seed in range(5))),
+    ("JAX PPO, the same without the squashed mean", False,
+     tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-10M-seed{seed}/best_policy.npz" for seed in range(5))),
     ("JAX PPO, the same without the clipped likelihood", False,
      ("runs/jax/uncertain-v2-history8-mean-mb32-10M-seed0/best_policy.npz",)),
     ("JAX PPO, 8-observation history and the episode's mean (lr 3e-4, 8 minibatches)", False,

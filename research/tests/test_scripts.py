@@ -69,7 +69,7 @@ def test_uncertain_failures_redraws_the_episodes_and_bins_them(tmp_path, capsys)
     result = uncertain_failures.main(["--out", str(tmp_path / "failures.json")])
     power = result["factors"]["power at the sail"]
     assert power["edges"][0] < 0.8 < 1.2 < power["edges"][-1]
-    learner = next(rates for name, rates in power["success"].items() if name.startswith("PPO clip (5"))
+    learner = next(rates for name, rates in power["success"].items() if name == "PPO, clipped likelihood: 5 run(s)")
     assert max(learner[0], learner[-1]) + 0.15 < min(learner[1:-1])
     assert min(power["success"]["lqg-mm-offset"]) > 0.85
     assert json.loads((tmp_path / "failures.json").read_text())["episodes"] == 200
