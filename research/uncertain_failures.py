@@ -8,8 +8,9 @@ episode's generator's first ``plant.n_draws`` numbers made factors by ``plant.fa
 is checked against the env's own: the axial acceleration of a reset with that seed must be the one the
 factors give. The power reaching the sail is the beam power's factor times the transmission's (its
 spread's and the uncertainty's, docs/physics.md §16). Each factor is cut into equal-count bins; a
-learner's entry averages its seeds per episode. Last, each one's correlation of success with the
-power's distance from nominal: how much it behaves as a fixed design tuned at the nominal sail.
+learner's entry averages its seeds per episode. Then the top quarter of the power split at its median
+beam offset, and each one's correlation of success with the power's distance from nominal: how much it
+behaves as a fixed design tuned at the nominal sail.
 """
 
 from __future__ import annotations
@@ -76,6 +77,16 @@ def main(argv: list[str] | None = None) -> dict:
             entry["edges"], entry["success"][name] = edges, rates
             print(f"  {name:46s} " + "  ".join(f"{rate:6.1%}" for rate in rates))
         print(f"  {'bin edges':46s} " + "  ".join(f"{edge:6.3f}" for edge in entry["edges"]))
+    # In the top quarter of the power, the beam offset's share: that quarter split at its median offset.
+    power, offset = columns["power at the sail"], columns["beam offset [cm]"]
+    top = power >= np.quantile(power, 0.75)
+    large = offset > np.median(offset[top])
+    result["top_power_quarter_by_offset"] = {
+        name: [float(success[top & ~large].mean()), float(success[top & large].mean())]
+        for name, success in outcomes.items()}
+    print("\nthe top quarter of the power, split at its median beam offset: small, large")
+    for name, (small, big) in result["top_power_quarter_by_offset"].items():
+        print(f"  {name:46s} {small:6.1%}  {big:6.1%}")
     # How much each depends on the power's distance from nominal: a fixed design tuned at the nominal sail
     # fails on both sides of it; one that adapts to the draw does not.
     distance = np.abs(columns["power at the sail"] - 1.0)
