@@ -53,6 +53,9 @@ UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
     ("JAX PPO, 8-observation history and the episode's mean, the clipped likelihood, the mean squashed into the "
      "box (10M steps, CPU; each curve's best)", False,
      tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-tanh-10M-seed{seed}/best_policy.npz" for seed in range(5))),
+    ("JAX PPO, the same with a critic that sees the draw in training (`--privileged-critic`)", False,
+     tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-tanh-privcritic-10M-seed{seed}/best_policy.npz"
+           for seed in (1, 2))),
     ("JAX PPO, the same without the squashed mean", False,
      tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-10M-seed{seed}/best_policy.npz" for seed in range(5))),
     ("JAX PPO, the same without the clipped likelihood", False,
