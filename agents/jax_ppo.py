@@ -210,6 +210,14 @@ def _bounded(mean: jax.Array, config: PPOConfig) -> jax.Array:
     return jnp.tanh(mean) if config.tanh_mean else mean
 
 
+def _factors(env, env_params, state, config: PPOConfig) -> jax.Array:
+    """The parameter factors (N, F) of the episodes in ``state`` where a network is privileged; without,
+    (N, 0): nothing to gather on every step or to carry through the update."""
+    if not (config.privileged_actor or config.privileged_critic):
+        return jnp.zeros((state.draw.shape[0], 0), jnp.float32)
+    return env.draw_factors(state, env_params).astype(jnp.float32)
+
+
 def _seen(config: PPOConfig, part: str, inputs: jax.Array, factors: jax.Array) -> jax.Array:
     """What network ``part`` sees: the memory's ``inputs``, then the episode's parameter ``factors``
     where it is privileged (``config.privileged_actor``, ``config.privileged_critic``)."""
@@ -281,7 +289,7 @@ def _log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array, clipped: b
 
 class Transition(NamedTuple):
     obs: jax.Array  # what the networks saw (:attr:`Memory.inputs`)
-    factors: jax.Array  # the episode's parameter factors, which a privileged network saw beside them
+    factors: jax.Array  # the episode's parameter factors a privileged network saw beside them ((…, 0) if none)
     start: jax.Array  # that step began an episode
     action: jax.Array
     log_prob: jax.Array
@@ -329,9 +337,6 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     minibatch = config.batch_size // config.num_minibatches
     factors_size = env_params.factors.shape[-1]
 
-    def factors_of(env_state) -> jax.Array:
-        return env.draw_factors(env_state, env_params).astype(jnp.float32)
-
     optimizer = optax.chain(optax.clip_by_global_norm(config.max_grad_norm),
                             optax.adam(functools.partial(learning_rate_at, config) if config.anneal_lr
                                        else config.learning_rate, eps=1e-5))
@@ -346,7 +351,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     def env_step(carry, _):
         network, env_state, memory, key = carry
         key, act_key, step_key = jax.random.split(key, 3)
-        factors = factors_of(env_state)
+        factors = _factors(env, env_params, env_state, config)
         mean, actor_hidden = apply(network["actor"], _seen(config, "actor", memory.inputs, factors),
                                    memory.hidden["actor"], memory.start)
         mean = _bounded(mean, config)
@@ -415,8 +420,8 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     def update(state: RunState, _):
         state, transitions, before = rollout(state)
         memory = state.memory
-        last_value = apply(state.network["critic"], _seen(config, "critic", memory.inputs, factors_of(state.env_state)),
-                           memory.hidden["critic"], memory.start)[0][:, 0]
+        seen = _seen(config, "critic", memory.inputs, _factors(env, env_params, state.env_state, config))
+        last_value = apply(state.network["critic"], seen, memory.hidden["critic"], memory.start)[0][:, 0]
         advantages, targets = gae(transitions, last_value)
 
         def epoch(carry, _):
@@ -481,9 +486,8 @@ def play_deterministic(env, env_params, config: PPOConfig, actor: dict[str, Any]
 
     def one(carry, key):
         memory, state, success, ended, beyond = carry
-        factors = env.draw_factors(state, env_params).astype(jnp.float32)
-        mean, hidden = apply(actor, _seen(config, "actor", memory.inputs, factors), memory.hidden["actor"],
-                             memory.start)
+        seen = _seen(config, "actor", memory.inputs, _factors(env, env_params, state, config))
+        mean, hidden = apply(actor, seen, memory.hidden["actor"], memory.start)
         mean = _bounded(mean, config)
         beyond = beyond + jnp.where(ended[:, None], 0.0, (jnp.abs(mean) > 1.0).astype(float)).sum(0)
         obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state,
