@@ -83,6 +83,8 @@ BESIDE_GRIDS = {"LightSail3DRealistic-v1": (ROOT / "benchmarks" / "results" / "l
      ("runs/jax/3d-realistic-v1-history8-mean-mb32-10M-seed0/best_policy.npz",)),
     ("JAX PPO, the same settings over 4M steps", False,
      tuple(f"runs/jax/3d-realistic-v1-mean-mb32-4M-seed{seed}/best_policy.npz" for seed in range(5))),
+    ("JAX PPO, the same over 4M steps with the mean squashed into the box (`--tanh-mean`)", False,
+     tuple(f"runs/jax/3d-realistic-v1-mean-mb32-tanh-4M-seed{seed}/best_policy.npz" for seed in range(5))),
     ("JAX PPO, the same over 4M steps with the clipped likelihood", False,
      tuple(f"runs/jax/3d-realistic-v1-mean-mb32-clip-4M-seed{seed}/best_policy.npz" for seed in range(5))),
 ))}
