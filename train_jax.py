@@ -129,6 +129,8 @@ def build_parser() -> cli.Parser:
                              "actor-critic); the actor sees what any controller sees")
     parser.add_argument("--privileged-actor", action="store_true",
                         help="the actor sees the draw too: a diagnostic, whose policy no env can play")
+    parser.add_argument("--state-dependent-std", action="store_true",
+                        help="the actor also outputs its Gaussian's log std, about the learnt one, per state")
     parser.add_argument("--checkpoint-every", type=cli.positive_int, metavar="UPDATES",
                         help=f"updates per compiled chunk, after each of which the run is checkpointed (default "
                              f"{CHECKPOINT_EVERY}; a resumed run keeps its own unless given)")

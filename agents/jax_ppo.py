@@ -31,6 +31,13 @@ each episode's advantages less noise. Only the critic sees them, and only in tra
 is exported and played, sees what any controller sees. ``privileged_actor`` gives them to the actor too:
 a diagnostic (what the learner reaches when it need not infer them), whose actor no env can play.
 
+The Gaussian's log std is one learnt vector, the same in every state (CleanRL's), unless
+``state_dependent_std``: the actor then also outputs each action's variation about it (brax's PPO
+outputs its scale so), clipped to :data:`LOG_STD_RANGE`. A task scored at an episode's end to 10 nrad
+may need the noise of exploration large while the sail's start is being damped and small at the
+end: with one σ for both, the rollouts' stochastic success on ``LightSailUncertain-v2`` stayed at 7–14 %
+where the deterministic policy scored 70–80 % (docs/learners.md). Only the mean is exported.
+
 The env clips each action to [-1, 1]. By default, as CleanRL's and PureJaxRL's PPO, the likelihood
 is the Gaussian's at the unclipped sample, blind to the clip: the objective is then not the policy
 the env plays, and here the deterministic actor got worse late in a run while its mean drifted out
@@ -94,6 +101,7 @@ class PPOConfig:
     tanh_mean: bool = False  # the actor's mean is the tanh of its last layer: inside [-1, 1]
     privileged_critic: bool = False  # the critic also sees the episode's parameter factors (training only)
     privileged_actor: bool = False  # the actor too (a diagnostic: no env shows them to a policy)
+    state_dependent_std: bool = False  # the actor also outputs each action's log std's variation about log_std
 
     def __post_init__(self) -> None:
         for name in ("total_timesteps", "num_envs", "num_steps", "update_epochs", "num_minibatches", "history"):
@@ -186,7 +194,8 @@ def init_network(key: jax.Array, obs_size: int, action_size: int, config: PPOCon
         return {"layers": body + head, "gru": _gru_init(gru_key, config.hidden[-1], config.recurrent)}
 
     actor_key, critic_key = jax.random.split(key)
-    return {"actor": part(actor_key, action_size, 0.01, config.privileged_actor),
+    actor_out = 2 * action_size if config.state_dependent_std else action_size
+    return {"actor": part(actor_key, actor_out, 0.01, config.privileged_actor),
             "critic": part(critic_key, 1, 1.0, config.privileged_critic),
             "log_std": jnp.full(action_size, config.log_std_init, jnp.float32)}
 
@@ -205,9 +214,21 @@ def apply(part: dict[str, Any], x: jax.Array, hidden: jax.Array | None,
     return x @ layers[-1]["w"] + layers[-1]["b"], hidden
 
 
-def _bounded(mean: jax.Array, config: PPOConfig) -> jax.Array:
-    """The actor's output as the Gaussian's mean: squashed into (-1, 1) with ``config.tanh_mean``."""
-    return jnp.tanh(mean) if config.tanh_mean else mean
+#: With ``state_dependent_std``, the range the Gaussian's log std is clipped to (σ from 0.0067 to 2.7 in
+#: action units): a state's σ cannot vanish, where the likelihood ratios of its actions would explode.
+LOG_STD_RANGE = (-5.0, 1.0)
+
+
+def _gaussian(output: jax.Array, log_std: jax.Array, config: PPOConfig) -> tuple[jax.Array, jax.Array]:
+    """The actor's ``output`` as the Gaussian's mean and log std. The mean: its first outputs, squashed
+    into (-1, 1) with ``config.tanh_mean``. The log std: ``log_std`` (the network's own, learnt), plus
+    with ``config.state_dependent_std`` the actor's other outputs, each action's variation about it
+    (clipped to :data:`LOG_STD_RANGE`)."""
+    size = log_std.shape[-1]
+    mean = output[..., :size]
+    if config.state_dependent_std:
+        log_std = jnp.clip(log_std + output[..., size:], *LOG_STD_RANGE)
+    return (jnp.tanh(mean) if config.tanh_mean else mean), log_std
 
 
 def _factors(env, env_params, state, config: PPOConfig) -> jax.Array:
@@ -352,10 +373,10 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
         network, env_state, memory, key = carry
         key, act_key, step_key = jax.random.split(key, 3)
         factors = _factors(env, env_params, env_state, config)
-        mean, actor_hidden = apply(network["actor"], _seen(config, "actor", memory.inputs, factors),
-                                   memory.hidden["actor"], memory.start)
-        mean = _bounded(mean, config)
-        action = mean + jnp.exp(network["log_std"]) * jax.random.normal(act_key, mean.shape)
+        output, actor_hidden = apply(network["actor"], _seen(config, "actor", memory.inputs, factors),
+                                     memory.hidden["actor"], memory.start)
+        mean, log_std = _gaussian(output, network["log_std"], config)
+        action = mean + jnp.exp(log_std) * jax.random.normal(act_key, mean.shape)
         if config.clipped_likelihood:
             action = jnp.clip(action, -1.0, 1.0)  # what the env plays, and what its likelihood is of
         value, critic_hidden = apply(network["critic"], _seen(config, "critic", memory.inputs, factors),
@@ -363,7 +384,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
         next_obs, env_state, reward, terminated, _, info = env.step_batch(
             jax.random.split(step_key, config.num_envs), env_state, action, env_params)
         transition = Transition(memory.inputs, factors, memory.start, action,
-                                _log_prob(mean, network["log_std"], action, config.clipped_likelihood),
+                                _log_prob(mean, log_std, action, config.clipped_likelihood),
                                 value[:, 0], reward.astype(jnp.float32), terminated, terminated & info["is_success"])
         memory = memory.next(next_obs, terminated, {"actor": actor_hidden, "critic": critic_hidden})
         return (network, env_state, memory, key), transition
@@ -386,9 +407,10 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
 
     def loss(network, hidden: dict[str, jax.Array | None], batch: Transition, advantages: jax.Array,
              targets: jax.Array) -> jax.Array:
-        mean = _bounded(_unroll(network["actor"], hidden["actor"], _seen(config, "actor", batch.obs, batch.factors),
-                                batch.start), config)
-        log_prob = _log_prob(mean, network["log_std"], batch.action, config.clipped_likelihood)
+        mean, log_std = _gaussian(_unroll(network["actor"], hidden["actor"],
+                                          _seen(config, "actor", batch.obs, batch.factors), batch.start),
+                                  network["log_std"], config)
+        log_prob = _log_prob(mean, log_std, batch.action, config.clipped_likelihood)
         value = _unroll(network["critic"], hidden["critic"], _seen(config, "critic", batch.obs, batch.factors),
                         batch.start)[..., 0]
         ratio = jnp.exp(log_prob - batch.log_prob)
@@ -400,7 +422,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
         # alone. The clipped Gaussian's would add a density's entropy to the bounds' masses' (no common
         # measure): below σ = (2πe)^-½ ≈ 0.24 a mean far beyond a bound would score higher than any
         # spread inside the box, and the bonus would push the actor out of it.
-        entropy = jnp.sum(network["log_std"] + 0.5 * jnp.log(2 * jnp.pi * jnp.e))
+        entropy = jnp.sum(log_std + 0.5 * jnp.log(2 * jnp.pi * jnp.e), axis=-1).mean()
         return policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
 
     def minibatches(key: jax.Array, hidden: dict[str, jax.Array | None], data: tuple) -> tuple:
@@ -465,10 +487,15 @@ def make_train(env, env_params, config: PPOConfig) -> Callable[[jax.Array], dict
 
 def actor_arrays(network: dict[str, Any]) -> dict[str, np.ndarray]:
     """The actor as named NumPy arrays (``w0, b0, w1, b1, …``, and ``gru_wx, gru_wh, gru_bx, gru_bh``
-    for a GRU, which sits before the last layer) as :class:`agents.mlp_policy.MlpPolicyAgent` reads them."""
-    arrays = {}
-    for i, layer in enumerate(network["actor"]["layers"]):
-        arrays[f"w{i}"], arrays[f"b{i}"] = np.asarray(layer["w"]), np.asarray(layer["b"])
+    for a GRU, which sits before the last layer) as :class:`agents.mlp_policy.MlpPolicyAgent` reads them:
+    the deterministic policy, so the last layer's outputs of the mean alone (with a state-dependent std
+    it also has the log std's, which ``network["log_std"]``'s size tells apart)."""
+    arrays, layers = {}, network["actor"]["layers"]
+    means = network["log_std"].shape[-1] if "log_std" in network else layers[-1]["b"].shape[-1]
+    for i, layer in enumerate(layers):
+        last = i == len(layers) - 1
+        arrays[f"w{i}"] = np.asarray(layer["w"][:, :means] if last else layer["w"])
+        arrays[f"b{i}"] = np.asarray(layer["b"][:means] if last else layer["b"])
     for name, value in network["actor"].get("gru", {}).items():
         arrays[f"gru_{name}"] = np.asarray(value)
     return arrays
@@ -481,14 +508,15 @@ def play_deterministic(env, env_params, config: PPOConfig, actor: dict[str, Any]
     actions it asked for (each component, each step) beyond [-1, 1], which the env clips. That share
     is how far the actor's mean has left the box, which a policy whose deterministic play falls late in
     a run does (docs/learners.md)."""
+    action_size = env.action_space(env_params).shape[0]
     reset_key, steps_key = jax.random.split(key)
     obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(reset_key, episodes), env_params)
 
     def one(carry, key):
         memory, state, success, ended, beyond = carry
         seen = _seen(config, "actor", memory.inputs, _factors(env, env_params, state, config))
-        mean, hidden = apply(actor, seen, memory.hidden["actor"], memory.start)
-        mean = _bounded(mean, config)
+        output, hidden = apply(actor, seen, memory.hidden["actor"], memory.start)
+        mean = _gaussian(output, jnp.zeros(action_size), config)[0]
         beyond = beyond + jnp.where(ended[:, None], 0.0, (jnp.abs(mean) > 1.0).astype(float)).sum(0)
         obs, state, _, terminated, _, info = env.step_batch(jax.random.split(key, episodes), state,
                                                             jnp.clip(mean, -1.0, 1.0), env_params)
@@ -496,7 +524,6 @@ def play_deterministic(env, env_params, config: PPOConfig, actor: dict[str, Any]
         memory = memory.next(obs, terminated, {**memory.hidden, "actor": hidden})
         return (memory, state, success, ended | terminated, beyond), jnp.sum(~ended)
 
-    action_size = env.action_space(env_params).shape[0]
     start = (Memory.first(obs, config), state, jnp.zeros(episodes, bool), jnp.zeros(episodes, bool),
              jnp.zeros(action_size))
     keys = jax.random.split(steps_key, env_params.max_steps_in_episode)

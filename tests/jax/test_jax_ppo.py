@@ -21,8 +21,9 @@ pytest.importorskip("optax")
 import jax.numpy as jnp  # noqa: E402
 
 import sail_env.jax  # noqa: E402
-from agents.jax_ppo import (Memory, PPOConfig, _log_prob, _seen, _unroll, actor_arrays, apply,  # noqa: E402
-                            init_network, learning_rate_at, make_chunks, make_train, play_deterministic)
+from agents.jax_ppo import (LOG_STD_RANGE, Memory, PPOConfig, _gaussian, _log_prob, _seen, _unroll,  # noqa: E402
+                            actor_arrays, apply, init_network, learning_rate_at, make_chunks, make_train,
+                            play_deterministic)
 from agents.mlp_policy import MlpPolicyAgent, save_policy  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -204,6 +205,39 @@ def test_a_privileged_critic_sees_its_episodes_draw_and_the_actor_its_observatio
                 {"env_id": "LightSailRealistic-v0", "history": 2, "privileged_actor": True})
     with pytest.raises(ValueError, match="parameter draw"):
         MlpPolicyAgent(tmp_path / "oracle.npz")
+
+
+def test_a_state_dependent_std_draws_each_action_with_its_states_spread_and_exports_the_mean(tmp_path: Path) -> None:
+    """The actor's second half of outputs moves the log std per state: the rollout samples each action
+    with its own state's σ and scores it so, the update scores it again the same, and the exported
+    actor is the mean alone."""
+    env, params = sail_env.jax.make("LightSailRealistic-v0")
+    config = dataclasses.replace(MEMORY_RUN, history=2, tanh_mean=True, state_dependent_std=True)
+    chunks = make_chunks(env, params, config)
+    state = chunks.init(jax.random.key(0))
+    network = state.network
+    size = network["log_std"].shape[0]
+    last = network["actor"]["layers"][-1]
+    assert last["w"].shape[1] == 2 * size
+    # spread the states' log std over much of its range (at initialisation it varies by ~1e-2)
+    rng = np.random.default_rng(0)
+    spread = {"w": last["w"].at[:, size:].set(jnp.asarray(rng.normal(0.0, 0.5, (last["w"].shape[0], size)),
+                                                          jnp.float32)), "b": last["b"]}
+    network = {**network, "actor": {**network["actor"], "layers": [*network["actor"]["layers"][:-1], spread]}}
+    _, rollout, _ = jax.jit(chunks.rollout)(state._replace(network=network))
+    mean, log_std = _gaussian(_unroll(network["actor"], None, rollout.obs, rollout.start), network["log_std"], config)
+    log_std = np.asarray(log_std)
+    assert np.ptp(log_std) > 2.0 and LOG_STD_RANGE[0] <= log_std.min() and log_std.max() <= LOG_STD_RANGE[1]
+    z = (np.asarray(rollout.action) - np.asarray(mean)) / np.exp(log_std)
+    assert abs(z.std() - 1.0) < 0.05 and abs(z.mean()) < 0.05  # 4 envs x 210 steps x 1 action: ±0.025 (1σ)
+    np.testing.assert_allclose(_log_prob(mean, jnp.asarray(log_std), rollout.action), rollout.log_prob, atol=1e-4)
+    assert not np.allclose(_log_prob(mean, network["log_std"], rollout.action), rollout.log_prob, atol=1e-2)
+    save_policy(tmp_path / "policy.npz", actor_arrays(network),
+                {"env_id": "LightSailRealistic-v0", "history": 2, "tanh_mean": True})
+    agent = MlpPolicyAgent(tmp_path / "policy.npz")
+    agent.reset()
+    first = np.asarray(rollout.obs)[0, 0, -agent.obs_size:]  # an episode's first observation (after zeros)
+    np.testing.assert_allclose(agent.act(first), np.asarray(mean)[0, 0], atol=1e-5)
 
 
 def test_the_clipped_likelihood_is_the_clipped_gaussians() -> None:
