@@ -13,7 +13,9 @@ the run starts and holding:
                      rollout's ended episodes so far, the learning curve ("curve": after every chunk, env
                      steps and the deterministic policy's success on the same 256 fresh episodes of the JAX
                      env; "beyond_box": on those episodes, the share of the actions it asked for beyond
-                     [-1, 1], which the env clips), "status": "running"; at the end "finished" and the
+                     [-1, 1], which the env clips; "exploration_std": the Gaussian's standard deviation
+                     the chunk's rollouts drew their actions with, averaged over the actions, and at
+                     the episodes' last steps), "status": "running"; at the end "finished" and the
                      deterministic policy's success on 1,000 other fresh episodes
     policy.npz       the deterministic actor after the last chunk (at the end: the trained one), which
                      evaluate.py --agent runs/latest/policy.npz plays on the Gym env (with its memory, if it
@@ -223,7 +225,7 @@ def load_checkpoint(path: Path) -> tuple[RunState, dict[str, Any]]:
 
 def write_runs(runs_dir: Path, progress: dict[str, Any], status: str, final: np.ndarray | None = None) -> None:
     """Each seed's run.json: the run's ``progress`` with that seed's own entries."""
-    per_seed = ("success_per_update", "curve", "beyond_box", "best")
+    per_seed = ("success_per_update", "curve", "beyond_box", "exploration_std", "best")
     shared = {key: value for key, value in progress.items() if key != "seeds" and key not in per_seed}
     for row, (seed, name) in enumerate(zip(progress["seeds"], progress["runs"])):
         record = {"seed": seed, "seeds_trained_together": len(progress["seeds"]), "status": status, **shared,
@@ -348,6 +350,10 @@ def main(argv: list[str] | None = None) -> int:
                 progress.setdefault("curve", [[] for _ in progress["seeds"]])[row].append(point)
                 progress.setdefault("beyond_box", [[] for _ in progress["seeds"]])[row].append(
                     [point[0], float(beyond[row])])
+                at_end = np.asarray(metrics["std_at_end"][row])
+                progress.setdefault("exploration_std", [[] for _ in progress["seeds"]])[row].append(
+                    [point[0], float(np.mean(metrics["std"][row])),
+                     float(np.nanmean(at_end)) if np.isfinite(at_end).any() else None])
                 if best[row] is None or point[1] > best[row][1]:
                     best[row] = point
                     improved.append(row)

@@ -314,6 +314,7 @@ class Transition(NamedTuple):
     start: jax.Array  # that step began an episode
     action: jax.Array
     log_prob: jax.Array
+    std: jax.Array  # the Gaussian's standard deviations the action was drawn with
     value: jax.Array
     reward: jax.Array
     done: jax.Array
@@ -352,7 +353,9 @@ def learning_rate_at(config: PPOConfig, count: jax.Array) -> jax.Array:
 def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
     """A PPO run on ``env`` (a :class:`~sail_env.jax.env.SailEnv`, stepped by its ``step_batch``) in
     chunks of updates. Each update's metrics: the success rate of the episodes that ended in its
-    rollout (NaN if none) and the mean reward."""
+    rollout (NaN if none), the mean reward, and the exploration's standard deviation (the mean over
+    its actions' components) over the rollout (``std``) and at the episodes' last steps
+    (``std_at_end``: where they are scored; NaN if none ended)."""
     action_size = env.action_space(env_params).shape[0]
     obs_size = env.observation_space(env_params).shape[0]
     minibatch = config.batch_size // config.num_minibatches
@@ -385,7 +388,7 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
             jax.random.split(step_key, config.num_envs), env_state, action, env_params)
         transition = Transition(memory.inputs, factors, memory.start, action,
                                 _log_prob(mean, log_std, action, config.clipped_likelihood),
-                                value[:, 0], reward.astype(jnp.float32), terminated, terminated & info["is_success"])
+                                jnp.broadcast_to(jnp.exp(log_std), action.shape), value[:, 0], reward.astype(jnp.float32), terminated, terminated & info["is_success"])
         memory = memory.next(next_obs, terminated, {"actor": actor_hidden, "critic": critic_hidden})
         return (network, env_state, memory, key), transition
 
@@ -463,8 +466,10 @@ def make_chunks(env, env_params, config: PPOConfig) -> Chunks:
         (network, opt_state, key), _ = jax.lax.scan(epoch, (state.network, state.opt_state, state.key), None,
                                                     config.update_epochs)
         ended = transitions.done.sum()
+        std = transitions.std.mean(axis=-1)
         metrics = {"success": jnp.where(ended > 0, transitions.success.sum() / jnp.maximum(ended, 1), jnp.nan),
-                   "reward": transitions.reward.mean()}
+                   "reward": transitions.reward.mean(), "std": std.mean(),
+                   "std_at_end": jnp.where(ended > 0, (std * transitions.done).sum() / jnp.maximum(ended, 1), jnp.nan)}
         return state._replace(network=network, opt_state=opt_state, key=key, update=state.update + 1), metrics
 
     def run(state: RunState, updates: int) -> tuple[RunState, dict[str, jax.Array]]:

@@ -224,13 +224,20 @@ def test_a_state_dependent_std_draws_each_action_with_its_states_spread_and_expo
     spread = {"w": last["w"].at[:, size:].set(jnp.asarray(rng.normal(0.0, 0.5, (last["w"].shape[0], size)),
                                                           jnp.float32)), "b": last["b"]}
     network = {**network, "actor": {**network["actor"], "layers": [*network["actor"]["layers"][:-1], spread]}}
-    _, rollout, _ = jax.jit(chunks.rollout)(state._replace(network=network))
+    state = state._replace(network=network)
+    _, rollout, _ = jax.jit(chunks.rollout)(state)
     mean, log_std = _gaussian(_unroll(network["actor"], None, rollout.obs, rollout.start), network["log_std"], config)
     log_std = np.asarray(log_std)
     assert np.ptp(log_std) > 2.0 and LOG_STD_RANGE[0] <= log_std.min() and log_std.max() <= LOG_STD_RANGE[1]
     z = (np.asarray(rollout.action) - np.asarray(mean)) / np.exp(log_std)
     assert abs(z.std() - 1.0) < 0.05 and abs(z.mean()) < 0.05  # 4 envs x 210 steps x 1 action: ±0.025 (1σ)
     np.testing.assert_allclose(_log_prob(mean, jnp.asarray(log_std), rollout.action), rollout.log_prob, atol=1e-4)
+    # the update's metrics (its rollout is this one): σ over the rollout and at the episodes' last steps
+    metrics = jax.jit(chunks.run, static_argnums=1)(state, 1)[1]
+    std, done = np.exp(log_std).mean(axis=-1), np.asarray(rollout.done)
+    assert done.any() and not done.all()
+    np.testing.assert_allclose(metrics["std"], [std.mean()], rtol=1e-5)
+    np.testing.assert_allclose(metrics["std_at_end"], [std[done].mean()], rtol=1e-5)
     assert not np.allclose(_log_prob(mean, network["log_std"], rollout.action), rollout.log_prob, atol=1e-2)
     save_policy(tmp_path / "policy.npz", actor_arrays(network),
                 {"env_id": "LightSailRealistic-v0", "history": 2, "tanh_mean": True})
@@ -340,6 +347,8 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
         assert json.loads(str(snapshot["meta"]))["timesteps"] == record["steps_per_update"]
     assert len(record["curve"]) == 1 and record["curve"][0][0] == record["steps_per_update"]
     assert record["beyond_box"][0][0] == record["steps_per_update"] and 0 <= record["beyond_box"][0][1] <= 1
+    steps, std, _ = record["exploration_std"][0]  # the default's σ: e^log_std_init, moved by one update
+    assert steps == record["steps_per_update"] and abs(std - np.exp(PPOConfig.log_std_init)) < 0.01
     assert train_jax.main(["--resume", str(run), "--checkpoint-every", "1"]) == 0
     for seed in (0, 1):
         whole, parts = (tmp_path / kind / f"LightSail-v0-jax_ppo-{seed}" for kind in ("whole", "parts"))
