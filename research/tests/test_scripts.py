@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from research import (coast_vs_nonlinear, delay_absorption_3d, first_try, realistic_ablation, uncertain_failures,
-                      uncertain_sizes)
+from research import (action_noise, coast_vs_nonlinear, delay_absorption_3d, first_try, realistic_ablation,
+                      uncertain_failures, uncertain_sizes)
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -73,3 +73,12 @@ def test_uncertain_failures_redraws_the_episodes_and_bins_them(tmp_path, capsys)
     assert max(learner[0], learner[-1]) + 0.15 < min(learner[1:-1])
     assert min(power["success"]["lqg-mm-offset"]) > 0.85
     assert json.loads((tmp_path / "failures.json").read_text())["episodes"] == 200
+
+
+def test_action_noise_puts_the_errors_where_asked(capsys):
+    """One episode: no error is the bank's own outcome; errors on the last step alone still play."""
+    clean, = action_noise.main(["--episodes", "1", "--sizes", "0"])
+    assert clean[0] == 0.0 and clean[1] in (0.0, 1.0) and clean[2] > 0
+    last, = action_noise.main(["--episodes", "1", "--sizes", "0.01", "--last", "1"])
+    assert last[1] in (0.0, 1.0) and last[2] != clean[2]  # the last action moved the end
+    assert "| 0.01 |" in capsys.readouterr().out
