@@ -85,6 +85,10 @@ BESIDE_GRIDS = {"LightSail3DRealistic-v1": (ROOT / "benchmarks" / "results" / "l
      tuple(f"runs/jax/3d-realistic-v1-mean-mb32-4M-seed{seed}/best_policy.npz" for seed in range(5))),
     ("JAX PPO, the same over 4M steps with the mean squashed into the box (`--tanh-mean`)", False,
      tuple(f"runs/jax/3d-realistic-v1-mean-mb32-tanh-4M-seed{seed}/best_policy.npz" for seed in range(5))),
+    ("JAX PPO, the same with less exploration noise (`--tanh-mean --log-std-init -2`, 4M steps)", False,
+     tuple(f"runs/jax/3d-realistic-v1-mean-mb32-tanh-logstd2-4M-seed{seed}/best_policy.npz" for seed in range(5))),
+    ("JAX PPO, the same over 10M steps", False,
+     ("runs/jax/3d-realistic-v1-mean-mb32-tanh-logstd2-10M-seed0/best_policy.npz",)),
     ("JAX PPO, the same over 4M steps with the clipped likelihood", False,
      tuple(f"runs/jax/3d-realistic-v1-mean-mb32-clip-4M-seed{seed}/best_policy.npz" for seed in range(5))),
 ))}
