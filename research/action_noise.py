@@ -20,7 +20,8 @@ import gymnasium as gym
 import numpy as np
 
 import sail_env  # noqa: F401
-from agents.evaluation import attach, make_agent
+from agents.evaluation import make_agent, run_episode
+from agents.oracle import attach
 
 ENV_ID = "LightSailUncertain-v2"
 AGENT = "lqg-mm-offset"
@@ -28,28 +29,39 @@ FIRST_SEED = 10_000
 NOISE_SEED = 123
 
 
+class WithErrors:
+    """``agent`` whose actions get ``size`` N(0, 1) errors (from ``rng``) on every step, or on the last
+    ``last`` of the ``window``'s steps; the episodes are played by :func:`agents.evaluation.run_episode`."""
+
+    def __init__(self, agent, size: float, last: int | None, window: int, rng: np.random.Generator) -> None:
+        self.agent, self.size, self.rng = agent, size, rng
+        self.first_noisy = 0 if last is None else window - last
+        self.step = 0
+
+    def attach(self, env: gym.Env) -> None:
+        attach(self.agent, env)
+
+    def reset(self) -> None:
+        self.agent.reset()
+        self.step = 0
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        action = np.asarray(self.agent.act(observation), np.float64)
+        if self.step >= self.first_noisy:
+            action = action + self.size * self.rng.standard_normal(action.shape)
+        self.step += 1
+        return np.clip(action, -1.0, 1.0)
+
+
 def success_with_errors(size: float, episodes: int, last: int | None) -> tuple[float, float]:
     """The success rate and the median terminal pointing [rad] with errors of ``size`` on every step's
     action (``last`` None) or on the last ``last`` steps of the window."""
     env = gym.make(ENV_ID)
-    agent = make_agent(AGENT, env)
-    attach(agent, env)
-    window = env.unwrapped.episode_spec.n_steps
-    rng = np.random.default_rng(NOISE_SEED)
-    successes, pointing = [], []
-    for seed in range(FIRST_SEED, FIRST_SEED + episodes):
-        obs, _ = env.reset(seed=seed)
-        agent.reset()
-        step, done = 0, False
-        while not done:
-            action = np.asarray(agent.act(obs), np.float64)
-            if last is None or step >= window - last:
-                action = action + size * rng.standard_normal(action.shape)
-            obs, _, terminated, truncated, info = env.step(np.clip(action, -1.0, 1.0).astype(np.float32))
-            done, step = terminated or truncated, step + 1
-        successes.append(info["is_success"])
-        pointing.append(info["terminal_pointing_rad"])
-    return float(np.mean(successes)), float(np.nanmedian(pointing))
+    agent = WithErrors(make_agent(AGENT, env), size, last, env.unwrapped.episode_spec.n_steps,
+                       np.random.default_rng(NOISE_SEED))
+    played = [run_episode(env, agent, seed) for seed in range(FIRST_SEED, FIRST_SEED + episodes)]
+    return (float(np.mean([episode["success"] for episode in played])),
+            float(np.nanmedian([episode["terminal_pointing_rad"] for episode in played])))
 
 
 def main(argv: list[str] | None = None) -> list[tuple[float, float, float]]:
