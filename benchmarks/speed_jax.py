@@ -1,6 +1,7 @@
 """Speed of the JAX backend against gymnax's ``CartPole-v1``, in one process, interleaved.
 
-    python -m benchmarks.speed_jax [--quick] [--sizes 1000 10000 ...] [--rounds K] [--out FILE] [--readme FILE]
+    python -m benchmarks.speed_jax [--quick] [--sizes 1000 10000 ...] [--tasks ID ...] [--rounds K] [--out FILE]
+                                   [--readme FILE]
 
 Each subject and the peer run the same loop: ``jit`` of a ``lax.scan`` over the batched step
 (autoreset inside the step) with uniform random actions drawn inside the loop, N environments,
@@ -175,6 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", type=int, nargs="+", default=SIZES)
     parser.add_argument("--steps", type=int, default=200, help="steps per timed call (default 200)")
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--tasks", nargs="+", choices=SUBJECTS, default=SUBJECTS,
+                        help="the tasks of the tables (default: all four)")
     parser.add_argument("--quick", action="store_true", help="N = 10^3 and 10^4, 2 rounds")
     parser.add_argument("--out", type=Path, help="write every round as JSON here")
     parser.add_argument("--readme", type=Path, help="put the tables between this markdown file's markers")
@@ -214,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
     for envs in args.sizes:
         peer = rollout(peer_env, peer_params, envs, args.steps, continuous=False)
         peer_compile = timed(peer, jax.random.key(0))
-        for task in SUBJECTS:
+        for task in args.tasks:
             env, params = sail_env.jax.make(task)
             subject = rollout(env, params, envs, args.steps, continuous=True)
             compile_s = timed(subject, jax.random.key(0))
@@ -227,7 +230,7 @@ def main(argv: list[str] | None = None) -> int:
                          "compile_s": compile_s, "peer_compile_s": peer_compile})
             lines.append(f"| {task} | {envs:,} | {rate:.3g} | {peer_rate:.3g} | {rate / peer_rate:.2f}× | {compile_s:.1f} |")
             print(lines[-1], flush=True)
-    lines += numba_table(SUBJECTS, args.steps, args.rounds, rows)
+    lines += numba_table(tuple(args.tasks), args.steps, args.rounds, rows)
     cold = cold_start_s()
     lines += ["", f"A new process's import, make, compile and first step of `LightSail-v0`: {cold:.1f} s."]
     print(lines[-1])

@@ -156,10 +156,12 @@ def test_speed_jax_writes_its_table_between_the_markers(tmp_path) -> None:
 
     doc = tmp_path / "performance.md"
     doc.write_text("before\n<!-- jax-speed-table:start -->\nold\n<!-- jax-speed-table:end -->\nafter\n")
-    assert speed_jax.main(["--sizes", "64", "--rounds", "1", "--steps", "4", "--readme", str(doc)]) == 0
+    assert speed_jax.main(["--sizes", "64", "--tasks", "LightSail-v0", "--rounds", "1", "--steps", "4",
+                            "--readme", str(doc)]) == 0
     text = doc.read_text()
     assert "old" not in text and text.startswith("before\n") and text.endswith("after\n")
     assert "| LightSail-v0 | 64 |" in text and "first step of `LightSail-v0`" in text
+    assert "LightSail3D-v0" not in text  # only the tasks asked for
 
 
 def test_gather_chunk_times_each_size_on_the_same_episodes_and_restores_the_setting(tmp_path) -> None:
