@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from research import (action_noise, coast_vs_nonlinear, delay_absorption_3d, first_try, realistic_ablation,
+from research import (action_noise, coast_vs_nonlinear, delay_absorption_3d, first_try, handover, realistic_ablation,
                       uncertain_failures, uncertain_sizes)
 
 
@@ -82,3 +82,32 @@ def test_action_noise_puts_the_errors_where_asked(capsys):
     last, = action_noise.main(["--episodes", "1", "--sizes", "0.01", "--last", "1"])
     assert last[1] in (0.0, 1.0) and last[2] != clean[2]  # the last action moved the end
     assert "| 0.01 |" in capsys.readouterr().out
+
+
+def test_handover_gives_the_steps_to_the_second_agent_and_tells_the_bank_what_was_sent(tmp_path):
+    """A learner that always asks for 0.5 on every input: after the handover to it (the window's last
+    step) the env is sent 0.5, and the bank's filters hold that command, not the bank's own."""
+    import gymnasium as gym
+    import numpy as np
+
+    from agents.evaluation import make_agent
+    from agents.mlp_policy import MlpPolicyAgent, save_policy
+
+    env = gym.make(handover.ENV_ID)
+    spec = env.unwrapped.episode_spec
+    size, m = env.observation_space.shape[0], env.action_space.shape[0]
+    path = tmp_path / "policy.npz"
+    save_policy(path, {"w0": np.zeros((size, m)), "b0": np.full(m, np.arctanh(0.5))},
+                {"env_id": handover.ENV_ID, "algo": "jax_ppo", "tanh_mean": True})
+    learner, bank = MlpPolicyAgent(path), make_agent(handover.BANK, env)
+    player = handover.make_player("bank-learner", learner, bank, 1, spec.n_steps, np.asarray(spec.action_scale))
+    obs, _ = env.reset(seed=handover.FIRST_SEED)
+    player.reset()
+    for step in range(spec.n_steps):
+        action = player.act(obs)
+        if step < spec.n_steps - 1:
+            assert not np.allclose(action, 0.5)  # the bank steers
+        obs, *_ = env.step(action)
+    np.testing.assert_allclose(action, 0.5, rtol=1e-6)
+    for member in bank.bank:
+        np.testing.assert_allclose(member.last_command[0], 0.5 * np.asarray(spec.action_scale), rtol=1e-6)
