@@ -88,7 +88,7 @@ BESIDE_GRIDS = {"LightSail3DRealistic-v1": (ROOT / "benchmarks" / "results" / "l
     ("JAX PPO, the same with less exploration noise (`--tanh-mean --log-std-init -2`, 4M steps)", False,
      tuple(f"runs/jax/3d-realistic-v1-mean-mb32-tanh-logstd2-4M-seed{seed}/best_policy.npz" for seed in range(5))),
     ("JAX PPO, the same over 10M steps", False,
-     ("runs/jax/3d-realistic-v1-mean-mb32-tanh-logstd2-10M-seed0/best_policy.npz",)),
+     tuple(f"runs/jax/3d-realistic-v1-mean-mb32-tanh-logstd2-10M-seed{seed}/best_policy.npz" for seed in range(5))),
     ("JAX PPO, the same over 4M steps with the clipped likelihood", False,
      tuple(f"runs/jax/3d-realistic-v1-mean-mb32-clip-4M-seed{seed}/best_policy.npz" for seed in range(5))),
 ))}
