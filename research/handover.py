@@ -1,6 +1,6 @@
 """Where in the window a learner loses its points: it and the adaptive bank share the episode.
 
-    python -m research.handover --policy runs/jax/<run>/best_policy.npz                # K = 10, 50 (about 35 min)
+    python -m research.handover --policy runs/jax/<run>/best_policy.npz                # K = 10, 50 (about 8 min)
     python -m research.handover --policy ... --last 10 --episodes 50
 
 A learner of ``train_jax.py`` and ``lqg-mm-offset`` (the best classical design on ``LightSailUncertain-v2``)
@@ -54,10 +54,11 @@ class Handover:
         self.step = 0
 
     def act(self, observation: np.ndarray) -> np.ndarray:
-        steering = self.first if self.step < self.switch else self.second
-        actions = {id(agent): np.asarray(agent.act(observation), np.float32) for agent in (self.first, self.second)}
-        sent = np.clip(actions[id(steering)], -1.0, 1.0)
-        if steering is not self.bank:  # the bank's filters predict with what was sent
+        # Both act on every step, so that each keeps its memory of the episode; one is sent.
+        actions = [np.asarray(agent.act(observation), np.float32) for agent in (self.first, self.second)]
+        steering = self.step >= self.switch
+        sent = np.clip(actions[steering], -1.0, 1.0)
+        if (self.first, self.second)[steering] is not self.bank:  # the bank's filters predict with what was sent
             for member in self.bank.bank:
                 member.replace_last_command(np.atleast_2d(sent * self.action_scale))
         self.step += 1
@@ -91,6 +92,10 @@ def main(argv: list[str] | None = None) -> list[tuple[str, int, float, float]]:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--last", type=int, nargs="+", default=[10, 50], help="steps the second agent plays")
     args = parser.parse_args(argv)
+    window = gym.make(ENV_ID).unwrapped.episode_spec.n_steps
+    for last in args.last:
+        if not 0 < last < window:
+            parser.error(f"--last {last}: the window has {window} steps, K must be in [1, {window - 1}]")
     print(f"{ENV_ID}, {args.policy} and {BANK}, {args.episodes} episodes per row\n")
     print("| who steers | last K steps | success | median terminal pointing |")
     print("|---|---:|---:|---:|")

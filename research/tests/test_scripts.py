@@ -111,3 +111,9 @@ def test_handover_gives_the_steps_to_the_second_agent_and_tells_the_bank_what_wa
     np.testing.assert_allclose(action, 0.5, rtol=1e-6)
     for member in bank.bank:
         np.testing.assert_allclose(member.last_command[0], 0.5 * np.asarray(spec.action_scale), rtol=1e-6)
+
+
+def test_handover_refuses_a_handover_outside_the_window(capsys):
+    with pytest.raises(SystemExit):
+        handover.main(["--policy", "unused.npz", "--last", "200"])
+    assert "K must be in [1, 199]" in capsys.readouterr().err
