@@ -59,6 +59,12 @@ def success_with_errors(size: float, episodes: int, last: int | None) -> tuple[f
     env = gym.make(ENV_ID)
     agent = WithErrors(make_agent(AGENT, env), size, last, env.unwrapped.episode_spec.n_steps,
                        np.random.default_rng(NOISE_SEED))
+    return play_episodes(env, agent, episodes)
+
+
+def play_episodes(env: gym.Env, agent, episodes: int) -> tuple[float, float]:
+    """``agent``'s success rate and median terminal pointing [rad] on ``episodes`` seeded episodes from
+    :data:`FIRST_SEED` (played by :func:`agents.evaluation.run_episode`)."""
     played = [run_episode(env, agent, seed) for seed in range(FIRST_SEED, FIRST_SEED + episodes)]
     return (float(np.mean([episode["success"] for episode in played])),
             float(np.nanmedian([episode["terminal_pointing_rad"] for episode in played])))

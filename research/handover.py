@@ -28,12 +28,10 @@ import gymnasium as gym
 import numpy as np
 
 import sail_env  # noqa: F401
-from agents.evaluation import make_agent, run_episode
+from agents.evaluation import make_agent
 from agents.oracle import attach
-
-ENV_ID = "LightSailUncertain-v2"
-BANK = "lqg-mm-offset"
-FIRST_SEED = 10_000
+from research.action_noise import AGENT as BANK
+from research.action_noise import ENV_ID, play_episodes
 
 
 class Handover:
@@ -81,9 +79,7 @@ def play(policy: str, order: str, last: int, episodes: int) -> tuple[float, floa
     spec = env.unwrapped.episode_spec
     learner, bank = make_agent(policy, env), make_agent(BANK, env)
     agent = make_player(order, learner, bank, last, spec.n_steps, np.asarray(spec.action_scale))
-    played = [run_episode(env, agent, seed) for seed in range(FIRST_SEED, FIRST_SEED + episodes)]
-    return (float(np.mean([episode["success"] for episode in played])),
-            float(np.nanmedian([episode["terminal_pointing_rad"] for episode in played])))
+    return play_episodes(env, agent, episodes)
 
 
 def main(argv: list[str] | None = None) -> list[tuple[str, int, float, float]]:

@@ -101,7 +101,7 @@ def test_handover_gives_the_steps_to_the_second_agent_and_tells_the_bank_what_wa
                 {"env_id": handover.ENV_ID, "algo": "jax_ppo", "tanh_mean": True})
     learner, bank = MlpPolicyAgent(path), make_agent(handover.BANK, env)
     player = handover.make_player("bank-learner", learner, bank, 1, spec.n_steps, np.asarray(spec.action_scale))
-    obs, _ = env.reset(seed=handover.FIRST_SEED)
+    obs, _ = env.reset(seed=action_noise.FIRST_SEED)
     player.reset()
     for step in range(spec.n_steps):
         action = player.act(obs)
