@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from research import (action_noise, coast_vs_nonlinear, delay_absorption_3d, first_try, handover, realistic_ablation,
-                      uncertain_failures, uncertain_sizes)
+from research import (action_noise, actor_average, coast_vs_nonlinear, delay_absorption_3d, first_try, handover,
+                      realistic_ablation, uncertain_failures, uncertain_sizes)
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -117,3 +117,32 @@ def test_handover_refuses_a_handover_outside_the_window(capsys):
     with pytest.raises(SystemExit):
         handover.main(["--policy", "unused.npz", "--last", "200"])
     assert "K must be in [1, 199]" in capsys.readouterr().err
+
+
+def test_actor_average_scores_each_actor_and_the_means_of_the_last(tmp_path, capsys):
+    """A run of train_jax.py on LightSail-v0 continued by 4 updates: actors 1 and 3 and the mean of the 4
+    scored on the same episodes; the checkpoint is left as it was."""
+    import train_jax
+
+    runs = tmp_path / "runs"
+    assert train_jax.main(["-n", "512", "--num-envs", "8", "--num-steps", "64", "--hidden", "8",
+                           "--runs-dir", str(runs)]) == 0
+    checkpoint = next(runs.glob("*/checkpoint.npz"))
+    before = checkpoint.read_bytes()
+    out = tmp_path / "average.json"
+    assert actor_average.main([str(checkpoint), "--updates", "4", "--every", "2", "--episodes", "8",
+                               "--out", str(out)]) == 0
+    results = json.loads(out.read_text())
+    assert [after for after, _ in results["each"]] == [1, 3] and list(results["averaged"]) == ["4"]
+    assert all(0 <= rate <= 1 for _, (rate,) in results["each"]) and results["from_update"] == 1
+    assert checkpoint.read_bytes() == before
+    assert actor_average.main([str(checkpoint), "--out", str(out)]) == 2
+
+
+def test_actor_average_means_the_last_actors_weight_by_weight():
+    import numpy as np
+
+    actors = [{"w": np.full((2, 2), float(i)), "b": np.array([i, -i], float)} for i in range(6)]
+    mean = actor_average.mean_of_last(actors, 4)
+    np.testing.assert_array_equal(mean["w"], np.full((2, 2), 3.5))
+    np.testing.assert_array_equal(mean["b"], [3.5, -3.5])
