@@ -7,7 +7,7 @@ import json
 import pytest
 
 from research import (action_noise, actor_average, coast_vs_nonlinear, delay_absorption_3d, first_try, handover,
-                      realistic_ablation, uncertain_failures, uncertain_sizes)
+                      realistic_ablation, sensor_noise_learner, uncertain_failures, uncertain_sizes)
 
 
 @pytest.mark.parametrize("script", [realistic_ablation, delay_absorption_3d])
@@ -146,3 +146,27 @@ def test_actor_average_means_the_last_actors_weight_by_weight():
     mean = actor_average.mean_of_last(actors, 4)
     np.testing.assert_array_equal(mean["w"], np.full((2, 2), 3.5))
     np.testing.assert_array_equal(mean["b"], [3.5, -3.5])
+
+
+def test_sensor_noise_learner_scales_the_tasks_noise_alone_and_records_its_run(tmp_path, capsys):
+    """The scale reaches the sensor noise and nothing else; a two-update run writes its curve and both
+    final scores, and an existing --out is refused."""
+    import numpy as np
+
+    import sail_env.jax
+
+    task = sail_env.jax.make(sensor_noise_learner.ENV_ID)[1]
+    for scale in (0.0, 0.5):
+        scaled = sensor_noise_learner.with_sensor_noise(scale)
+        np.testing.assert_array_equal(scaled.sensor_std, scale * task.sensor_std)
+        np.testing.assert_array_equal(scaled.step_matrix, task.step_matrix)
+        assert scale == 0.0 or scaled.sensor_std.max() > 0
+    out = tmp_path / "run.json"
+    ppo = ["-n", "1024", "--num-envs", "8", "--num-steps", "64", "--hidden", "8", "--history", "2"]
+    assert sensor_noise_learner.main(["--scale", "0", "--chunk", "1", "--final-episodes", "4", "--out", str(out),
+                                      "--", *ppo]) == 0
+    record = json.loads(out.read_text())
+    assert record["status"] == "finished" and [step for step, _ in record["curve"]] == [512, 1024]
+    assert 0 <= record["final_success_scaled_noise"] <= 1 and 0 <= record["final_success_task"] <= 1
+    assert sensor_noise_learner.main(["--scale", "0", "--out", str(out), "--", *ppo]) == 2
+    assert "exists" in capsys.readouterr().err
