@@ -25,6 +25,7 @@ minutes alone on a core of this CPU; an interrupted run starts again, and its cu
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import sys
@@ -37,7 +38,7 @@ import numpy as np
 import sail_env.jax
 import train_jax
 from agents import cli
-from agents.jax_ppo import make_chunks, play_deterministic
+from agents.jax_ppo import PPOConfig, make_chunks, play_deterministic
 from sail_env.jax.env import EnvParams
 from sail_env.tasks import RIGID3D_TASKS
 
@@ -62,7 +63,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="the results' JSON file (a new one)")
     try:
         args = parser.parse_args(ours)
-        ppo = train_jax.build_parser().parse_args(ppo_flags)
+        ppo_parser = train_jax.build_parser()
+        ppo = ppo_parser.parse_args(ppo_flags)
+        # Only PPO's settings and the seed apply here: any other flag of train_jax.py is refused, not ignored.
+        applies = {field.name for field in dataclasses.fields(PPOConfig)} | {"first_seed"}
+        ignored = [name for name, value in vars(ppo).items()
+                   if name not in applies and value != ppo_parser.get_default(name)]
+        if ignored:
+            raise cli.UsageError(f"{train_jax.flag_of(ppo_parser, ignored[0])}: only train_jax.py's PPO settings "
+                                 f"and --first-seed apply here (the task is {ENV_ID}, one seed, no run folder)")
         config = train_jax.config_of(vars(ppo))
         if not args.scale >= 0:
             raise cli.UsageError(f"--scale must be >= 0, got {args.scale}")

@@ -170,3 +170,6 @@ def test_sensor_noise_learner_scales_the_tasks_noise_alone_and_records_its_run(t
     assert 0 <= record["final_success_scaled_noise"] <= 1 and 0 <= record["final_success_task"] <= 1
     assert sensor_noise_learner.main(["--scale", "0", "--out", str(out), "--", *ppo]) == 2
     assert "exists" in capsys.readouterr().err
+    other = tmp_path / "other.json"
+    assert sensor_noise_learner.main(["--scale", "0", "--out", str(other), "--", "--env", "LightSail3D-v0"]) == 2
+    assert "--env: only train_jax.py's PPO settings" in capsys.readouterr().err and not other.exists()
