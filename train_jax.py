@@ -111,6 +111,8 @@ def build_parser() -> cli.Parser:
     parser.add_argument("--final-learning-rate", type=float, default=defaults["final_learning_rate"],
                         help="where the annealing ends, in [0, --learning-rate]")
     parser.add_argument("--gamma", type=float, default=defaults["gamma"], help="discount")
+    parser.add_argument("--gae-lambda", type=float, default=defaults["gae_lambda"],
+                        help="GAE's λ: 1 gives the returns' own advantages, lower leans on the critic")
     parser.add_argument("--ent-coef", type=float, default=defaults["ent_coef"], help="weight of the entropy bonus")
     parser.add_argument("--log-std-init", type=float, default=defaults["log_std_init"],
                         help="the Gaussian policy's log standard deviation at the start")

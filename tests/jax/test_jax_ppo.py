@@ -288,7 +288,8 @@ def test_bad_settings_are_refused_naming_them() -> None:
 @pytest.mark.parametrize("argv, message", [
     (["--env", "CartPole-v1"], "JAX backend has"), (["--seeds", "0"], "--seeds"),
     (["-n", "10"], "total_timesteps"), (["--hidden", "64,x"], "--hidden"), (["--hidden", "64,0"], "--hidden"),
-    (["--gamma", "1.5"], "gamma"), (["--final-learning-rate", "0.1"], "final_learning_rate must be in [0"),
+    (["--gamma", "1.5"], "gamma"), (["--gae-lambda", "0"], "gae_lambda must be in (0.0, 1.0]"),
+    (["--final-learning-rate", "0.1"], "final_learning_rate must be in [0"),
     (["--no-anneal-lr", "--final-learning-rate", "1e-5"], "it needs anneal_lr"),
     (["--ent-coef", "-0.1"], "ent_coef"), (["--history", "0"], "--history"),
     (["--recurrent", "8", "--num-envs", "6", "--num-minibatches", "4"], "num_envs (6) must be a multiple"),
