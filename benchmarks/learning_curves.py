@@ -123,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="the PNG to write")
     parser.add_argument("--legend", choices=("inside", "below"), default="inside",
                         help="the legend in the axes' lower right corner, or below them")
+    parser.add_argument("--log-steps", action="store_true",
+                        help="env steps on a logarithmic axis (runs whose lengths differ by decades)")
     try:
         args = parser.parse_args(argv)
         configs = []
@@ -144,6 +146,8 @@ def main(argv: list[str] | None = None) -> int:
     for (label, (rate, episodes)), style in zip(references.items(), REFERENCE_STYLES):
         ax.axhline(100 * rate, color="k", linestyle=style, linewidth=1, label=f"{label}: {rate:.1%} ({episodes} episodes)")
     ax.set_xlabel("env steps")
+    if args.log_steps:
+        ax.set_xscale("log")
     ax.set_ylabel("selection success [%]")
     ax.set_title(f"{args.env}: success of the deterministic policy on the selection episodes")
     ax.set_ylim(0, Y_TOP)
