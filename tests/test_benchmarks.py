@@ -89,7 +89,8 @@ def test_learning_curves_from_a_grid_export_take_each_cells_latest_trial(tmp_pat
 def test_reference_lines_near_100_percent_stay_off_the_frame_and_are_named_together(tmp_path, capsys, monkeypatch):
     """The adaptive LQG and both bounds at 98-99 % once merged into the top of the frame: the axis now
     runs above 100 %, and lines too close to tell apart are named together above them; a line two
-    points or more from its neighbours is not. The steps' axis is linear unless --log-steps."""
+    points or more from its neighbours is not. The steps' axis is linear unless --log-steps; a legend
+    below the axes leaves them the figure's width."""
     from benchmarks import learning_curves
 
     figures = []
@@ -110,9 +111,12 @@ def test_reference_lines_near_100_percent_stay_off_the_frame_and_are_named_toget
     notes = [text.get_text() for text in ax.texts]
     assert notes == ["ceiling: LQG oracle / adaptive LQG (lqg-mm) / ceiling: LQR oracle: 98.4–99.2 %, on top of each other"]
     assert learning_curves.bundles({"a": (0.5, 1), "b": (0.52, 1), "c": (0.53, 1)}) == [["b", "c"]]
-    assert learning_curves.main(["--env", "T", "--grid", str(export), "--runs", "PPO=T-ppo-*", "--log-steps",
-                                 "--out", str(tmp_path / "log.png")]) == 0
+    assert learning_curves.main(["--env", "T", "--grid", str(export), "--log-steps", "--legend", "below",
+                                 "--runs", "PPO, with a label as long as the docs' figures have=T-ppo-*",
+                                 "--report", str(report), "--out", str(tmp_path / "log.png")]) == 0
     assert figures[-1][1].get_xscale() == "log"
+    # A legend below the axes is laid out after them: it once squeezed them to half the figure's width.
+    assert figures[-1][1].get_position().width > 0.8
 
 
 def test_every_reference_line_has_a_style():
