@@ -115,7 +115,7 @@ def test_reference_lines_near_100_percent_stay_off_the_frame_and_are_named_toget
                                  "--runs", "PPO, with a label as long as the docs' figures have=T-ppo-*",
                                  "--report", str(report), "--out", str(tmp_path / "log.png")]) == 0
     assert figures[-1][1].get_xscale() == "log"
-    # A legend below the axes is laid out after them: it once squeezed them to half the figure's width.
+    # A legend below the axes is laid out after them: it once squeezed them to 65 % of the figure's width.
     assert figures[-1][1].get_position().width > 0.8
 
 
