@@ -157,12 +157,12 @@ def main(argv: list[str] | None = None) -> int:
                     (0.99, max(rates)), xycoords=("axes fraction", "data"), xytext=(0, 2), textcoords="offset points",
                     ha="right", va="bottom", fontsize=7, color="0.2")
     ax.grid(alpha=0.3)
-    if args.legend == "below":  # curves that fill the axes: the legend under them, laid out after the
-        fig.tight_layout()       # axes so that they keep the figure's width (savefig's bbox takes it in)
+    # Laid out before the legend: one below the axes would otherwise squeeze them (savefig's bbox takes it in).
+    fig.tight_layout()
+    if args.legend == "below":  # curves that fill the axes: the legend under them
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
     else:
         ax.legend(fontsize=8, loc="lower right")
-        fig.tight_layout()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(args.out, dpi=110, bbox_inches="tight")  # a legend below the axes is not cut off
     for label, steps, rates, runs in configs:
