@@ -51,6 +51,11 @@ NAMES = {"passive": "passive", "lqr": "LQR", "lqg": "LQG", "lqg-mm": "`lqg-mm`",
 #: classical design (a residual), and its runs (one per seed).
 UNCERTAIN_LEARNERS = {"LightSailUncertain-v2": (
     ("JAX PPO, 8-observation history and the episode's mean, the clipped likelihood, the mean squashed into the "
+     "box, less exploration noise with a σ per state, a GRU of 128 units, γ 0.999 and λ 0.99 (10M steps, CPU; "
+     "each curve's best)", False,
+     tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-tanh-logstd2-sdstd-gru128-g999-l99-10M-seed{seed}/best_policy.npz"
+           for seed in range(5))),
+    ("JAX PPO, 8-observation history and the episode's mean, the clipped likelihood, the mean squashed into the "
      "box (10M steps, CPU; each curve's best)", False,
      tuple(f"runs/jax/uncertain-v2-history8-mean-mb32-clip-tanh-10M-seed{seed}/best_policy.npz" for seed in range(5))),
     ("JAX PPO, the same with a critic that sees the draw in training (`--privileged-critic`)", False,
