@@ -520,9 +520,10 @@ def markdown(env_id: str, config: dict[str, Any], summary: dict[str, dict[str, A
 
 
 def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
-              env_kwargs: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+              env_kwargs: dict[str, Any] | None = None, rewards: bool = False) -> list[dict[str, Any]]:
     """Episodes ``seed + i`` all at once on the vector env (the same episodes as :func:`run_episode`'s);
-    ``env_kwargs`` change the task's keywords."""
+    ``env_kwargs`` change the task's keywords; ``rewards``: each episode's rewards step by step too
+    (``"rewards"``, the last one the terminal step's)."""
     envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {}))
     attach(agent, envs)
     obs, _ = envs.reset(seed=seed)
@@ -530,9 +531,13 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
     start = envs.unwrapped.state.x.copy()
     running = np.ones(episodes, dtype=bool)
     returns, scores = np.zeros(episodes), {}
+    steps: list[list[float]] = [[] for _ in range(episodes)]
     while running.any():
         obs, reward, terminated, _, info = envs.step(np.asarray(agent.act(obs), dtype=np.float32))
         returns += np.where(running, reward, 0.0)
+        if rewards:
+            for i in np.flatnonzero(running):
+                steps[i].append(float(reward[i]))
         ended = terminated & running
         if ended.any():
             final = info["final_info"]
@@ -544,7 +549,7 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
     return [{"seed": seed + i, **{f"{k}0": float(start[i, j]) for j, k in enumerate(names)},
              "cutoff_s": float(scores["cutoff_s"][i]), "terminal_pointing_rad": float(scores["terminal_pointing_rad"][i]),
              "success": bool(scores["is_success"][i]), "diverged": bool(scores["diverged"][i]),
-             "return": float(returns[i])} for i in range(episodes)]
+             "return": float(returns[i]), **({"rewards": steps[i]} if rewards else {})} for i in range(episodes)]
 
 
 def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: bool = True,
