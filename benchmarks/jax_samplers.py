@@ -49,26 +49,46 @@ def numba_success(env_id: str, agent_name: str, episodes: int) -> float:
 
 
 def jax_success(env_id: str, agent_name: str, episodes: int) -> float:
+    """The agent's success rate over the first episode of ``episodes`` JAX environments (:func:`first_episodes`)."""
+    env, params = sail_env.jax.make(env_id)
+    return float(first_episodes(env, params, agent_name, episodes)["is_success"].mean())
+
+
+def first_episodes(env: sail_env.jax.SailEnv, params: sail_env.jax.EnvParams, agent_name: str, episodes: int,
+                   seed: int = 1) -> dict[str, np.ndarray]:
     """Every environment's first episode through ``step_batch`` (its autoreset starts a second one,
     which is not counted), the policy's memory started afresh with each episode; the loop stops once
-    every first episode has ended."""
-    env, params = sail_env.jax.make(env_id)
+    every first episode has ended. Each first episode's ``is_success`` and ``expected_success``."""
     policy = POLICIES[agent_name](env.spec)
-    obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(jax.random.key(1), episodes), params)
+    obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(jax.random.key(seed), episodes), params)
     memory = jax.vmap(lambda _: policy.start())(jnp.arange(episodes))
+    dtype = params.state_scale.dtype
 
-    def one(carry):
-        obs, state, memory, success, ended, key = carry
+    def one(carry, params):  # params an argument, not a constant of the program (the fast coast's maps: ~2 GB)
+        obs, state, memory, success, expected, ended, key = carry
         key, step_key = jax.random.split(key)
         memory, action = jax.vmap(policy.act)(memory, obs)
         obs, state, _, terminated, _, info = env.step_batch(jax.random.split(step_key, episodes), state, action,
                                                             params)
-        success = jnp.where(terminated & ~ended, info["is_success"], success)
-        return obs, state, memory, success, ended | terminated, key
+        first = terminated & ~ended
+        success = jnp.where(first, info["is_success"], success)
+        expected = jnp.where(first, info["expected_success"], expected)
+        return obs, state, memory, success, expected, ended | terminated, key
 
-    start = (obs, state, memory, jnp.zeros(episodes, bool), jnp.zeros(episodes, bool), jax.random.key(2))
-    success = jax.jit(lambda c: jax.lax.while_loop(lambda c: ~jnp.all(c[4]), one, c)[3])(start)
-    return float(success.mean())
+    start = (obs, state, memory, jnp.zeros(episodes, bool), jnp.full(episodes, jnp.nan, dtype),
+             jnp.zeros(episodes, bool), jax.random.key(seed + 1))
+    _, _, _, success, expected, _, _ = jax.jit(lambda c, params: jax.lax.while_loop(
+        lambda c: ~jnp.all(c[5]), lambda c: one(c, params), c))(start, params)
+    return {"is_success": np.asarray(success), "expected_success": np.asarray(expected)}
+
+
+def keep_row(path: Path, row: dict) -> None:
+    """``row`` added to the JSON list in ``path`` (written whole), in place of a row of the same env, agent and
+    episodes."""
+    key = (row["env"], row["agent"], row["episodes"])
+    kept = json.loads(path.read_text()) if path.exists() else []
+    cli.write_whole(path, json.dumps([*(r for r in kept if (r["env"], r["agent"], r["episodes"]) != key), row],
+                                     indent=1) + "\n")
 
 
 def standard_error(numba: float, jax_rate: float, episodes: int) -> float:
@@ -110,9 +130,7 @@ def main(argv: list[str] | None = None) -> int:
                "date": time.strftime("%Y-%m-%d")}
         print(json.dumps(row), flush=True)
         if args.out:
-            kept = json.loads(args.out.read_text()) if args.out.exists() else []
-            kept = [r for r in kept if (r["env"], r["agent"], r["episodes"]) != (args.env, agent, args.episodes)]
-            cli.write_whole(args.out, json.dumps([*kept, row], indent=1))
+            keep_row(args.out, row)
     return 0
 
 

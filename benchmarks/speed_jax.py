@@ -2,6 +2,7 @@
 
     python -m benchmarks.speed_jax [--quick] [--sizes 1000 10000 ...] [--tasks ID ...] [--rounds K] [--out FILE]
                                    [--readme FILE]
+    python -m benchmarks.speed_jax --fast-coast 4096 --rounds 2 --out benchmarks/results/speed_jax_fast_coast.json
 
 Each subject and the peer run the same loop: ``jit`` of a ``lax.scan`` over the batched step
 (autoreset inside the step) with uniform random actions drawn inside the loop, N environments,
@@ -60,11 +61,12 @@ print(time.perf_counter() - start)
 def rollout(env, params, envs: int, steps: int, continuous: bool, batched: bool = True):
     """A jitted function of a key: ``steps`` autoresetting steps of ``envs`` environments (the
     backend's ``step_batch`` for a sail unless not ``batched``, gymnax's ``vmap(step)`` otherwise);
-    returns the rewards' sum (so that nothing is optimised away)."""
+    returns the rewards' sum (so that nothing is optimised away). ``params`` enter the program as an
+    argument, not as its constants (the fast coast's maps are ~2 GB)."""
     step = getattr(env, "step_batch", None) if batched else None
     step = step or jax.vmap(env.step, in_axes=(0, 0, 0, None))
 
-    def run(key):
+    def run(key, params):
         obs, state = jax.vmap(env.reset, in_axes=(0, None))(jax.random.split(key, envs), params)
 
         def one(carry, key):
@@ -80,7 +82,8 @@ def rollout(env, params, envs: int, steps: int, continuous: bool, batched: bool 
         (_, total), _ = jax.lax.scan(one, (state, jnp.zeros(())), jax.random.split(key, steps))
         return total
 
-    return jax.jit(run)
+    compiled = jax.jit(run)
+    return lambda key: compiled(key, params)
 
 
 def timed(function, key) -> float:
@@ -135,6 +138,36 @@ def along_rates(sizes: list[int], steps: int, rounds: int, rows: list[dict]) -> 
                   flush=True)
 
 
+def fast_coast_table(sizes: list[int], steps: int, rounds: int, rows: list[dict]) -> list[str]:
+    """:data:`ALONG_SUBJECTS` on the fast coast (``coast="fast"``) against the default coast at each N, in one
+    process, interleaved (default, fast, …; best of ``rounds``); each call a whole window, so every episode's
+    coast is in it. The table's lines (printed as they come), each row added to ``rows``."""
+    lines = ["", "The fast coast against the default coast (one process, interleaved, `step_batch`):", "",
+             "| task | N | default env-steps/s | fast env-steps/s | fast ÷ default | fast's build [s] |",
+             "|---|---:|---:|---:|---:|---:|"]
+    print("\n".join(lines), flush=True)
+    for task in ALONG_SUBJECTS:
+        env, params = sail_env.jax.make(task)
+        start = time.perf_counter()
+        fast_env, fast_params = sail_env.jax.make(task, coast="fast")
+        build_s = time.perf_counter() - start
+        for envs in sizes:
+            default, fast = (rollout(e, p, envs, steps, continuous=True) for e, p in ((env, params),
+                                                                                       (fast_env, fast_params)))
+            timed(default, jax.random.key(0))
+            timed(fast, jax.random.key(0))
+            best_default = best_fast = float("inf")
+            for r in range(rounds):
+                best_default = min(best_default, timed(default, jax.random.key(r + 1)))
+                best_fast = min(best_fast, timed(fast, jax.random.key(r + 1)))
+            rate, fast_rate = envs * steps / best_default, envs * steps / best_fast
+            rows.append({"task": task, "envs": envs, "default_rate": rate, "fast_rate": fast_rate,
+                         "fast_build_s": build_s, "fast_draws": int(fast_params.acceleration.shape[0])})
+            lines.append(f"| {task} | {envs:,} | {rate:.3g} | {fast_rate:.3g} | {fast_rate / rate:.1f}× | {build_s:.0f} |")
+            print(lines[-1], flush=True)
+    return lines
+
+
 def numba_table(tasks: tuple[str, ...], steps: int, rounds: int, rows: list[dict]) -> list[str]:
     """The JAX backend against the Numba vector env at N = :data:`NUMBA_ENVS` (one process, interleaved,
     best of ``rounds``), and against its own ``vmap(env.step)`` except for :data:`ALONG_SUBJECTS`: the
@@ -185,7 +218,19 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"only {', '.join(ALONG_SUBJECTS)} against the Numba vector env at N = {NUMBA_ENVS:,}")
     parser.add_argument("--along-sizes", type=int, nargs="+",
                         help=f"only {', '.join(ALONG_SUBJECTS)}'s own rate at these N (an accelerator's figure)")
+    parser.add_argument("--fast-coast", type=int, nargs="+", metavar="N",
+                        help=f"only {', '.join(ALONG_SUBJECTS)}: the fast coast against the default at these N")
     args = parser.parse_args(argv)
+    if args.fast_coast:
+        if min(args.fast_coast) < 1:
+            return cli.fail(cli.UsageError(f"--fast-coast: N must be >= 1, got {min(args.fast_coast)}"))
+        rows = []
+        fast_coast_table(args.fast_coast, args.steps, args.rounds, rows)
+        if args.out:
+            cli.write_whole(args.out, json.dumps({"device": str(jax.devices()[0].device_kind), "machine": machine(),
+                                                  "jax": jax.__version__, "steps": args.steps, "rows": rows,
+                                                  "date": time.strftime("%Y-%m-%d")}, indent=1))
+        return 0
     if args.readme:
         try:
             cli.readme_around_section(args.readme, README_SECTION)

@@ -21,6 +21,7 @@ measures each against the plant).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import jax
@@ -30,7 +31,7 @@ from flax import struct
 
 from sail_env.jax import tables
 from sail_env.physics.linear_plant import GROWTH_PER_PIECE
-from sail_env.physics.noise import moment_generator, second_moment
+from sail_env.physics.noise import held_input_generator, moment_generator, second_moment
 from sail_env.physics.rigid3d.plant import BISECTIONS, COAST_SEGMENT_S, FlightModel
 from sail_env.physics.rigid3d.uncertainty import with_draw_terms
 
@@ -225,12 +226,10 @@ class Coast:
         return (jnp.where(widened, along.kinematics + rows[:, None] * radiation, a),
                 jnp.where(widened, rows[:, None] * inputs, b))
 
-    def generator(self, along: AlongFlight, d: jax.Array, u: jax.Array, t: jax.Array) -> jax.Array:
-        """The second moments' generator (h, h) of draw ``d`` with ``u`` held at flight time ``t`` (the
-        plant's ``_moment_generator``): the push noise, the beam jitter of the draw's distance at ``t``,
-        the impacts of its speed at ``t``."""
+    def _noise_terms(self, along: AlongFlight, d: jax.Array, t: jax.Array) -> tuple:
+        """Draw ``d``'s model at flight time ``t`` and its noises (the plant's ``_moment_terms``): ``(A, B)``,
+        the beam jitter's intensity at the draw's distance at ``t`` and the impacts' at its speed."""
         a, b = self.piece_model(along, d, t)
-        held = jnp.concatenate([u, jnp.ones(1, u.dtype)]) if self.biased else u
         distance = tables.flight_distance(along.flights, along.ratio[d], t) if self.model.reads_distance else None
         std = self.plant.jitter_std_along(distance, jnp)
         jitter_psd = jnp.asarray(std, a.dtype) ** 2 * self.model.dt
@@ -239,8 +238,25 @@ class Coast:
             rate, kick = self.plant.impacts_along(self.speed(along, d, t), jnp)
             rows = jnp.array(self.impulse_rows)
             impacts = jnp.zeros((self.n, self.n), a.dtype).at[rows, rows].set(rate * kick ** 2)
+        return a, b, jitter_psd, impacts
+
+    def generator(self, along: AlongFlight, d: jax.Array, u: jax.Array, t: jax.Array) -> jax.Array:
+        """The second moments' generator (h, h) of draw ``d`` with ``u`` held at flight time ``t`` (the
+        plant's ``_moment_generator``): the push noise, the beam jitter of the draw's distance at ``t``,
+        the impacts of its speed at ``t``."""
+        a, b, jitter_psd, impacts = self._noise_terms(along, d, t)
+        held = jnp.concatenate([u, jnp.ones(1, u.dtype)]) if self.biased else u
         return moment_generator(a, b, held, self.model.noise, (a - along.kinematics, b), self.jitter_inputs,
                                 jitter_psd, impacts, xp=jnp)
+
+    def held_generator(self, along: AlongFlight, d: jax.Array, t: jax.Array) -> jax.Array:
+        """:meth:`generator` for every held command at once (h', h'): the second moments' generator of
+        ``(s, u, 1)``, the command as constant states (:func:`~sail_env.physics.noise.held_input_generator`;
+        the plant's constant term joins the constant's column). ``R G' L(u)`` is :meth:`generator`'s
+        ``u`` (:func:`~sail_env.physics.noise.held_input_maps`)."""
+        a, b, jitter_psd, impacts = self._noise_terms(along, d, t)
+        return held_input_generator(a, b, self.model.noise, (a - along.kinematics, b), self.jitter_inputs,
+                                    jitter_psd, impacts, held=self.m, xp=jnp)
 
     # ------------------------------------------------------------------ the coast
     def pieces(self, along: AlongFlight, d: jax.Array, duration: jax.Array) -> jax.Array:
@@ -269,6 +285,23 @@ class Coast:
             return jnp.where((near < target) & (target < far), above, hi)
 
         return jnp.sort(jax.vmap(cut)(along.kink_distances))
+
+    def span_propagator(self, along: AlongFlight, d: jax.Array, lo: jax.Array, hi: jax.Array,
+                        generator_at: Callable[[jax.Array], jax.Array], into: jax.Array,
+                        back: jax.Array, kinks: bool = True) -> jax.Array:
+        """The moments' propagator over ``[lo, hi]`` of draw ``d`` with ``generator_at(t)`` its generator
+        held at ``t`` (``into``/``back``: the balancing): one exponential held at the middle, where no kink
+        falls inside; else the product of its parts' (the plant's ``_piece_propagators``). ``kinks=False``:
+        known to have none inside (one exponential, not one a part)."""
+        kinks = along.kink_distances.shape[0] if kinks else 0
+        if not kinks:
+            return expm(generator_at(0.5 * (lo + hi)) * ((hi - lo) * into)) * back
+        bounds = jnp.concatenate([lo[None], self._cuts(along, d, lo, hi), hi[None]])
+        total = jnp.eye(into.shape[0], dtype=into.dtype)
+        for part in range(kinks + 1):
+            first, last = bounds[part], bounds[part + 1]
+            total = (expm(generator_at(0.5 * (first + last)) * ((last - first) * into)) * back) @ total
+        return total
 
     def coast(self, along: AlongFlight, d: jax.Array, x: jax.Array, u: jax.Array, start: jax.Array,
               duration: jax.Array, normals: jax.Array, into: jax.Array, back: jax.Array, sample: Any,

@@ -43,6 +43,7 @@ own exponential of each piece, so these episodes agree to ~1e-7, not to the bit
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import jax
@@ -58,6 +59,7 @@ from sail_env.core.spec import EpisodeSpec
 from sail_env.jax import along as along_module
 from sail_env.jax.along import AlongFlight, Coast, along_of
 from sail_env.jax.arith import divide, log_ratio, ordered_dot
+from sail_env.jax.fast_coast import FAST_DRAWS, FastCoast, fast_coast, fast_coast_of, fast_launch
 from sail_env.physics.linear import sample_gaussian
 from sail_env.physics.noise import balancing, held_input_maps, mean_and_covariance, second_moment
 
@@ -80,6 +82,13 @@ MAX_SQUARINGS = 20
 #: An accelerator runs a chunk's rows side by side: 256 there (not measured against other sizes).
 CHUNK = {"cpu": 8}
 ACCELERATOR_CHUNK = 256
+#: The coasts a JAX env plays (``coast=``): the default, the Numba core's piece by piece; ``fast``, each draw's
+#: pieces built once (:mod:`sail_env.jax.fast_coast`), the same in law.
+COASTS = ("default", "fast")
+#: The terminal rewards (``terminal_reward=``): the sampled coast's, or its mean over ``expected_paths`` coasts.
+TERMINAL_REWARDS = ("sampled", "expected")
+#: The most further coasts an episode's score may average over.
+MAX_PATHS = 1024
 #: θ₁₃ of the Padé approximant ``jax.scipy.linalg.expm`` uses: it squares ``log2(‖A‖₁ / θ₁₃)`` times.
 _PADE13_THETA = 5.371920351148152
 
@@ -101,6 +110,9 @@ class EnvState(environment.EnvState):
     commands: jax.Array  # (C, m) ring of the sent commands, step s's at s % C (C = 1 without light delay)
     states: jax.Array  # (S, n) ring of true states, step s's at (s + lag0) % S (the delayed observation's source)
     sensor: jax.Array  # (n,) the standard normals of the current observation's sensor noise
+    #: The probability of success given the window's end, estimated over the score's paths (``expected_paths``
+    #: of :func:`~sail_env.jax.make`): NaN before the end or without paths, 0 after a divergence in the window.
+    expected_success: jax.Array
 
 
 @struct.dataclass
@@ -129,6 +141,8 @@ class StepNoise:
     in_flight: jax.Array  # (D + 2, J + 1 + r) the steps after the window while commands are in flight
     in_flight_counts: jax.Array  # (D + 2,) their impact counts
     coast: jax.Array  # (P, n) the coast's draws, one per piece
+    #: (K, P, n) the draws of the score's K further coasts (``expected_paths``); None without them
+    paths: jax.Array | None = None
 
 
 @struct.dataclass
@@ -171,6 +185,8 @@ class EnvParams:
     factors: jax.Array
     #: A model that changes along the flight (:mod:`sail_env.jax.along`): its tables and per-draw arrays.
     along: AlongFlight | None = None
+    #: Each draw's coast pieces built once (``coast="fast"``, :mod:`sail_env.jax.fast_coast`); None: the default coast.
+    fast: FastCoast | None = None
     max_steps_in_episode: int = struct.field(pytree_node=False, default=200)
     #: Pieces of a noise-free coast to cut-off (divergence is checked after each): static, so that the
     #: coast unrolls (one matrix product for a stable sail) instead of a loop of data-dependent length.
@@ -375,9 +391,26 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
     """
 
     def __init__(self, spec: EpisodeSpec, env_id: str = "LightSail", dtype: jnp.dtype = jnp.float64,
-                 draws: int = DRAWS) -> None:
+                 draws: int | None = None, coast: str = "default", expected_paths: int = 0,
+                 terminal_reward: str = "sampled") -> None:
         super().__init__()
         plant, dist = spec.plant, spec.randomisation
+        if coast not in COASTS:
+            raise ValueError(f"coast must be one of {', '.join(COASTS)}, got {coast!r}")
+        if coast == "fast" and not plant.time_varying:
+            raise ValueError("coast='fast' is for the tasks whose coast follows the flight (the realistic 3D and "
+                             "uncertain tasks); this task's coast is one piece already")
+        if isinstance(expected_paths, bool) or not isinstance(expected_paths, (int, np.integer)) or not (
+                0 <= expected_paths <= MAX_PATHS):
+            raise ValueError(f"expected_paths must be an int in [0, {MAX_PATHS}], got {expected_paths!r}")
+        if terminal_reward not in TERMINAL_REWARDS:
+            raise ValueError(f"terminal_reward must be one of {', '.join(TERMINAL_REWARDS)}, got {terminal_reward!r}")
+        if terminal_reward == "expected" and not expected_paths:
+            raise ValueError("terminal_reward='expected' averages the score over paths: give expected_paths >= 1")
+        #: The score's further coasts from the window's end, and whether the terminal reward is their mean.
+        self.expected_paths, self.expected_reward = int(expected_paths), terminal_reward == "expected"
+        if draws is None:
+            draws = FAST_DRAWS if coast == "fast" else DRAWS
         self.spec = spec  # what controllers design on, as the Gym envs' ``episode_spec``
         self._id = env_id
         self.n_states, self.n_inputs = plant.n_states, plant.n_inputs
@@ -399,6 +432,21 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         #: The coast of a model that changes along the flight (None: one fixed model).
         self.along = Coast(plant, plant.flight_model(plant.params(np.ones((1, plant.n_factors))))) if (
             plant.time_varying) else None
+        if coast == "fast":
+            self._params = self._with_fast_coast(self._params)
+
+    def _with_fast_coast(self, params: EnvParams) -> EnvParams:
+        """``params`` with each draw's coast pieces built (:func:`~sail_env.jax.fast_coast.fast_coast_of`),
+        from each draw's coast start to the latest cut-off."""
+        draws = params.acceleration.shape[0]
+        start = np.asarray(jax.jit(jax.vmap(lambda d: self._coast_start(params, d)))(jnp.arange(draws)), np.float64)
+        scale = np.asarray(self.spec.action_scale, np.float64)
+        units = np.concatenate([self.spec.plant.start_limits(), np.where(scale > 0, scale, 1.0)])
+        cutoff, jitter = float(params.beam_cutoff_s), float(params.cutoff_jitter_s)
+        pre_control = np.asarray(params.control_start_s - params.delay[:, 0] * params.dt, np.float64)
+        fast = fast_coast_of(self.along, params.along, start, (cutoff - jitter, cutoff + jitter), units, pre_control,
+                             params.pre_pieces, params.into_units, params.from_units)
+        return params.replace(fast=fast, coast_pieces=max(params.coast_pieces, fast.maps.shape[1] + 1))
 
     @property
     def name(self) -> str:
@@ -488,8 +536,11 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         normals = jax.random.normal(normal_key, (flight[0] * flight[1] + coast[0] * coast[1],),
                                     params.state_scale.dtype)
         split = flight[0] * flight[1]
+        # The score's paths from a key of their own: the episode's draws are those without them.
+        paths = jax.random.normal(jax.random.fold_in(key, 1), (self.expected_paths, *coast), noise.coast.dtype) if (
+            self.expected_paths) else None
         return noise.replace(in_flight=normals[:split].reshape(flight), coast=normals[split:].reshape(coast),
-                             in_flight_counts=self._impact_counts(count_key, params, draw, (flight[0],)))
+                             in_flight_counts=self._impact_counts(count_key, params, draw, (flight[0],)), paths=paths)
 
     # ------------------------------------------------------------------ reset
     def reset_env(self, key: jax.Array, params: EnvParams) -> tuple[jax.Array, EnvState]:
@@ -503,8 +554,12 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         d, n, dtype = start.draw, self.n_states, params.state_scale.dtype
         if self.along is not None:  # piece by piece along the flight from launch, beam off
             pre_control = params.control_start_s - params.delay[d, 0].astype(dtype) * params.dt
-            x, _ = self._coast_along(params, d, start.launch, jnp.zeros(self.n_inputs, dtype), jnp.zeros((), dtype),
-                                     pre_control, start.pre_coast)
+            if params.fast is not None:
+                x, _ = fast_launch(params.fast, d, start.launch, start.pre_coast,
+                                   lambda state: self._diverged(state, params.limits[d]))
+            else:
+                x, _ = self._coast_along(params, d, start.launch, jnp.zeros(self.n_inputs, dtype),
+                                         jnp.zeros((), dtype), pre_control, start.pre_coast)
             x = jnp.where(pre_control > 0, x, start.launch)
         elif self.noisy:
             x = self._sample(params.pre_propagator[d] @ self._moments(start.launch), start.pre_coast[0])
@@ -529,7 +584,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
                          pointing=jnp.full((), jnp.nan, dtype), draw=jnp.asarray(d, jnp.int32),
                          cutoff=jnp.asarray(start.cutoff, dtype), speed=self._speed_at(params, d, start.cutoff),
                          commands=jnp.zeros((self.command_ring, self.n_inputs), dtype), states=states,
-                         sensor=jnp.asarray(start.sensor, dtype))
+                         sensor=jnp.asarray(start.sensor, dtype), expected_success=jnp.full((), jnp.nan, dtype))
         return self.observe_state(state, params), state
 
     # ------------------------------------------------------------------ step
@@ -552,9 +607,9 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         the same results, the coasts computed only for the episodes whose window has ended
         (:func:`_on_rows`): the same-draws entry at the scale of a batch."""
         state = jax.vmap(self._window_step, in_axes=(0, 0, 0, None))(state, action, noise, params)
-        final, lost = _on_rows(state.terminated & ~state.diverged,
-                               lambda state, noise: self._coast(state, noise, params), (state, noise))
-        state = jax.vmap(self._finish, in_axes=(0, 0, 0, None))(state, final, lost, params)
+        final, lost, paths = _on_rows(state.terminated & ~state.diverged,
+                                      lambda state, noise: self._coast(state, noise, params), (state, noise))
+        state = jax.vmap(self._finish, in_axes=(0, 0, 0, 0, None))(state, final, lost, paths, params)
         obs = jax.vmap(self.observe_state, in_axes=(0, None))(state, params)
         return obs, state, state.reward, state.terminated, jax.vmap(self.scores)(state)
 
@@ -575,11 +630,11 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         noise = jax.vmap(self._step_noise, in_axes=(0, None, 0))(noise_keys[:, 0], params, state.draw)
         state = jax.vmap(self._window_step, in_axes=(0, 0, 0, None))(state, action, noise, params)
 
-        def coast(state: EnvState, noise: StepNoise, end_key: jax.Array) -> tuple[jax.Array, jax.Array]:
+        def coast(state: EnvState, noise: StepNoise, end_key: jax.Array) -> tuple:
             return self._coast(state, self._with_end_noise(noise, end_key, params, state.draw), params)
 
-        final, lost = _on_rows(state.terminated & ~state.diverged, coast, (state, noise, noise_keys[:, 1]))
-        state = jax.vmap(self._finish, in_axes=(0, 0, 0, None))(state, final, lost, params)
+        final, lost, paths = _on_rows(state.terminated & ~state.diverged, coast, (state, noise, noise_keys[:, 1]))
+        state = jax.vmap(self._finish, in_axes=(0, 0, 0, 0, None))(state, final, lost, paths, params)
         obs_st = jax.vmap(self.observe_state, in_axes=(0, None))(state, params)
         done = state.terminated
         obs_re, state_re = _on_rows(done, lambda key: self.reset_env(key, params), (reset_keys,))
@@ -620,7 +675,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
     def scores(state: EnvState) -> dict[str, jax.Array]:
         """What the Gym envs report at an episode's end (meaningful once ``terminated``)."""
         return {"is_success": succeeded(state.pointing), "terminal_pointing_rad": state.pointing,
-                "diverged": state.diverged, "envelope_rad": state.envelope}
+                "diverged": state.diverged, "envelope_rad": state.envelope, "expected_success": state.expected_success}
 
     def is_truncated(self, state: EnvState, params: EnvParams) -> jax.Array:
         """Never: the window's end terminates the episode (it is scored at cut-off)."""
@@ -712,9 +767,25 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
                                 params.from_units, lambda moments, _, drawn: self._sample(moments, drawn),
                                 lambda state: self._diverged(state, params.limits[d]))
 
-    def _coast(self, state: EnvState, noise: StepNoise, params: EnvParams) -> tuple[jax.Array, jax.Array]:
+    def _in_flight(self, params: EnvParams, d: jax.Array, now: jax.Array) -> jax.Array:
+        """Whether a command sent in the window still acts during step ``now`` after it (light delay)."""
+        return now - params.delay[d, now] < params.max_steps_in_episode - 1
+
+    def _coast_start(self, params: EnvParams, d: jax.Array) -> jax.Array:
+        """The flight time [s] draw ``d``'s coast with the last command held starts at: the window's end and
+        the steps while commands are in flight (the draw's alone)."""
+        reached = jnp.asarray(params.max_steps_in_episode, jnp.int32)
+        if self.delayed:
+            reached = jax.lax.fori_loop(0, self.max_delay + 2, lambda _, now: jnp.where(
+                self._in_flight(params, d, now), now + 1, now), reached)
+        return params.control_start_s + reached.astype(params.dt.dtype) * params.dt
+
+    def _coast(self, state: EnvState, noise: StepNoise,
+               params: EnvParams) -> tuple[jax.Array, jax.Array, tuple[jax.Array, jax.Array] | None]:
         """From the end of the window to cut-off: the commands still in flight step by step, then the
-        last command held to cut-off. Returns the state at cut-off and whether the coast diverged."""
+        last command held to cut-off. Returns the state at cut-off, whether the coast diverged, and the
+        score's paths' (``noise.paths``: K further coasts from the same state after the commands in
+        flight; None without them)."""
         d = state.draw
         limits = params.limits[d]
         if not self.noisy:  # a fixed coast: its pieces unrolled (one for a stable sail)
@@ -723,14 +794,16 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
             for _ in range(params.coast_pieces):
                 final = jnp.where(lost, final, params.coast_phi[d] @ final + drive)
                 lost = lost | self._diverged(final, limits)
-            return final, lost
+            paths = None if noise.paths is None else (
+                jnp.broadcast_to(final, (noise.paths.shape[0], *final.shape)), jnp.broadcast_to(lost, noise.paths.shape[:1]))
+            return final, lost, paths
         x, reached = state.x, state.time
         if self.delayed:
             last, lag0 = params.max_steps_in_episode - 1, params.delay[d, 0]
 
             def in_flight(k: int, carry: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
                 x, now = carry
-                moving = now - params.delay[d, now] < last
+                moving = self._in_flight(params, d, now)
                 applied = self._arrived(params, d, now, last, state.commands)
                 moved = self._physics(params, d, x, applied, noise.in_flight[k], noise.in_flight_counts[k],
                                       now + lag0)
@@ -739,34 +812,60 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
             x, reached = jax.lax.fori_loop(0, self.max_delay + 2, in_flight, (x, reached))
         remaining = jnp.maximum(state.cutoff - (params.control_start_s + reached.astype(x.dtype) * params.dt), 0.0)
         held = state.last_command
-        if self.along is not None:
-            return self._coast_along(params, d, x, held, state.cutoff - remaining, remaining, noise.coast)
-        pick, lift0, lift1, lift2 = (jnp.asarray(a, x.dtype) for a in held_input_maps(self.n_states, self.n_inputs))
-        lift = lift0 + jnp.tensordot(held, lift1, 1) + jnp.tensordot(jnp.outer(held, held), lift2, 2)
-        generator = params.coast_generator[d] @ lift
-        balanced = generator * (remaining * params.into_units)
-        propagator = jax.scipy.linalg.expm(balanced, max_squarings=MAX_SQUARINGS) * params.from_units
-        final = self._sample(propagator @ self._moments(x), noise.coast[0])
-        return final, self._diverged(final, limits)
+        if params.fast is not None:
+            coast = functools.partial(fast_coast, self.along, params.along, params.fast, d, x, held, state.cutoff,
+                                      into=params.into_units, back=params.from_units,
+                                      diverged=lambda state: self._diverged(state, limits))
+            final, lost = coast(noise.coast)
+            return final, lost, None if noise.paths is None else coast(noise.paths)
+
+        def coast_from(normals: jax.Array) -> tuple[jax.Array, jax.Array]:
+            if self.along is not None:
+                return self._coast_along(params, d, x, held, state.cutoff - remaining, remaining, normals)
+            pick, lift0, lift1, lift2 = (jnp.asarray(a, x.dtype) for a in held_input_maps(self.n_states, self.n_inputs))
+            lift = lift0 + jnp.tensordot(held, lift1, 1) + jnp.tensordot(jnp.outer(held, held), lift2, 2)
+            generator = params.coast_generator[d] @ lift
+            balanced = generator * (remaining * params.into_units)
+            propagator = jax.scipy.linalg.expm(balanced, max_squarings=MAX_SQUARINGS) * params.from_units
+            final = self._sample(propagator @ self._moments(x), normals[0])
+            return final, self._diverged(final, limits)
+
+        final, lost = coast_from(noise.coast)
+        return final, lost, None if noise.paths is None else jax.vmap(coast_from)(noise.paths)
 
     def _score(self, state: EnvState, noise: StepNoise, params: EnvParams) -> EnvState:
         """Coast a finished window to cut-off and score it (computed every step and selected, as
         ``vmap`` would run both branches anyway)."""
         return self._finish(state, *self._coast(state, noise, params), params)
 
-    def _finish(self, state: EnvState, final: jax.Array, coast_lost: jax.Array, params: EnvParams) -> EnvState:
+    def _finish(self, state: EnvState, final: jax.Array, coast_lost: jax.Array,
+                paths: tuple[jax.Array, jax.Array] | None, params: EnvParams) -> EnvState:
         """The score of a finished window from its state at cut-off and whether the coast diverged
         (read only where the window ended inside the beam): the terminal reward, the divergence
-        penalty, the pointing."""
+        penalty, the pointing; with the score's paths (their states at cut-off and divergences), the
+        expected success and, for ``terminal_reward="expected"``, the terminal reward as their mean."""
+        scored = state.terminated & ~state.diverged
+        pointing, terminal = self._terminal(state, final, coast_lost)
+        diverged = state.diverged | (scored & coast_lost)
+        reward = jnp.where(diverged, DIVERGENCE_PENALTY, jnp.where(scored, terminal, state.reward))
+        expected = state.expected_success
+        if self.expected_paths:
+            finals, losts = (final[None], coast_lost[None]) if paths is None else paths
+            pointings, terminals = jax.vmap(self._terminal, in_axes=(None, 0, 0))(state, finals, losts)
+            won = jnp.mean((succeeded(pointings) & ~losts).astype(final.dtype))
+            expected = jnp.where(scored, won, jnp.where(state.diverged, 0.0, expected))
+            if self.expected_reward:
+                reward = jnp.where(state.diverged, DIVERGENCE_PENALTY, jnp.where(scored, jnp.mean(terminals), state.reward))
+        pointing = jnp.where(diverged, jnp.inf, jnp.where(scored, pointing, jnp.nan))
+        return state.replace(reward=reward, diverged=diverged, pointing=pointing, expected_success=expected)
+
+    def _terminal(self, state: EnvState, final: jax.Array, lost: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """The pointing of a state at cut-off and the last step's reward it gives: the window's last reward,
+        the pointing's and the success bonus, or the divergence penalty where the coast left the beam."""
         velocity = final[jnp.array(self.velocity_rows)]
         pointing = divide(jnp.sqrt(jnp.sum(velocity * velocity)), state.speed)
-        scored = state.terminated & ~state.diverged
         bonus = jnp.where(succeeded(pointing), SUCCESS_BONUS, 0.0)
-        reward = jnp.where(scored, state.reward + (-log_ratio(pointing) + bonus), state.reward)
-        diverged = state.diverged | (scored & coast_lost)
-        reward = jnp.where(diverged, DIVERGENCE_PENALTY, reward)
-        pointing = jnp.where(diverged, jnp.inf, jnp.where(scored, pointing, jnp.nan))
-        return state.replace(reward=reward, diverged=diverged, pointing=pointing)
+        return pointing, jnp.where(lost, DIVERGENCE_PENALTY, state.reward + (-log_ratio(pointing) + bonus))
 
     # ------------------------------------------------------------------ observation
     def observe_state(self, state: EnvState, params: EnvParams) -> jax.Array:

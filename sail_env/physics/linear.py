@@ -77,13 +77,16 @@ class LinearModel:
         return cached
 
 
-def augmented(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``[[A, B], [0, 0]]``: the generator of ``(x, u)`` with ``u`` held."""
+def augmented(a: np.ndarray, b: np.ndarray, xp: Any = np) -> np.ndarray:
+    """``[[A, B], [0, 0]]``: the generator of ``(x, u)`` with ``u`` held (``xp``: the array module)."""
     n, m = b.shape[-2:]
-    out = np.zeros((*a.shape[:-2], n + m, n + m))
-    out[..., :n, :n] = a
-    out[..., :n, n:] = b
-    return out
+    if xp is np:
+        out = np.zeros((*a.shape[:-2], n + m, n + m))
+        out[..., :n, :n] = a
+        out[..., :n, n:] = b
+        return out
+    top = xp.concatenate([xp.broadcast_to(a, (*b.shape[:-2], n, n)), b], axis=-1)
+    return xp.concatenate([top, xp.zeros((*top.shape[:-2], m, n + m), top.dtype)], axis=-2)
 
 
 def zoh_discretize(a: np.ndarray, b: np.ndarray, dt: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -88,23 +88,27 @@ def moment_generator(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Wh
 
 def held_input_generator(a: np.ndarray, b: np.ndarray, noise: WhiteNoise, push: tuple[np.ndarray, np.ndarray],
                          jitter_inputs: tuple[int, ...], jitter_psd: np.ndarray | None = None,
-                         state_psd: np.ndarray | None = None) -> np.ndarray:
-    """:func:`moment_generator` of the state ``(s, u)`` whose input ``u`` (m) is held as constant
-    states: one generator per model for every held input (arguments as :func:`moment_generator`'s,
-    without the action), of size ``(n+m+1)(n+m+2)/2``. :func:`held_input_maps` turns it into the
-    generator of one input, so a backend that meets a new input at every episode's end (the JAX
-    one) builds each model's once."""
+                         state_psd: np.ndarray | None = None, held: int | None = None, xp: Any = np) -> np.ndarray:
+    """:func:`moment_generator` of the state ``(s, u)`` whose input ``u`` (its first ``held`` columns of
+    ``b``, all by default) is held as constant states: one generator per model for every held input
+    (arguments as :func:`moment_generator`'s, without the action), of size ``(n+held+1)(n+held+2)/2``.
+    Columns of ``b`` past ``held`` are inputs at 1 (a plant's constant term): they join the constant's
+    column, so the constant needs no state of its own. :func:`held_input_maps` turns it into the
+    generator of one input, so a backend that meets a new input at every episode's end (the JAX one)
+    builds each model's once; its exponential over a piece moves the second moments of ``(s, u, 1)``
+    for every held input at once (the JAX backend's fast coast). ``xp`` as :func:`moment_generator`'s."""
     n, m = b.shape[-2:]
-    b_held = np.zeros((*b.shape[:-2], n + m, m))
-    b_held[..., :n, :] = b
+    held = m if held is None else held
+    b_held = _placed(xp.zeros((*b.shape[:-2], n + held, m)), np.s_[..., :n, :], b)
     a_push, b_push = push
-    held_push = (augmented(a_push, b_push), np.zeros_like(b_held))
+    held_push = (augmented(a_push, b_push[..., :held], xp), _placed(xp.zeros(b_held.shape), np.s_[..., :n, :], b_push))
     held_state_psd = None
     if state_psd is not None:
-        held_state_psd = np.zeros((*np.shape(state_psd)[:-2], n + m, n + m))
-        held_state_psd[..., :n, :n] = state_psd
-    return moment_generator(augmented(a, b), b_held, np.zeros(m), noise, held_push, jitter_inputs, jitter_psd,
-                            held_state_psd)
+        held_state_psd = _placed(xp.zeros((*np.shape(state_psd)[:-2], n + held, n + held)), np.s_[..., :n, :n],
+                                 state_psd)
+    at_one = np.concatenate([np.zeros(held), np.ones(m - held)])
+    return moment_generator(augmented(a, b[..., :held], xp), b_held, at_one, noise, held_push, jitter_inputs,
+                            jitter_psd, held_state_psd, xp=xp)
 
 
 @functools.lru_cache(maxsize=None)

@@ -293,7 +293,11 @@ def test_bad_settings_are_refused_naming_them() -> None:
     (["--no-anneal-lr", "--final-learning-rate", "1e-5"], "it needs anneal_lr"),
     (["--ent-coef", "-0.1"], "ent_coef"), (["--history", "0"], "--history"),
     (["--recurrent", "8", "--num-envs", "6", "--num-minibatches", "4"], "num_envs (6) must be a multiple"),
-    (["--privileged-critic"], "LightSail-v0 draws no parameters"), (["--resume", "runs/x"], "drop --runs-dir")])
+    (["--privileged-critic"], "LightSail-v0 draws no parameters"), (["--resume", "runs/x"], "drop --runs-dir"),
+    (["--coast", "fast"], "coast='fast' is for the tasks whose coast follows the flight"),
+    (["--coast", "quick"], "--coast: invalid choice"), (["--terminal-reward", "mean"], "--terminal-reward"),
+    (["--expected-paths", "4"], "--expected-paths: the paths are for --terminal-reward expected"),
+    (["--terminal-reward", "expected", "--expected-paths", "0"], "--expected-paths")])
 def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                           argv: list[str], message: str) -> None:
     import train_jax
@@ -302,6 +306,19 @@ def test_train_jax_refuses_in_one_line_and_writes_nothing(tmp_path: Path, capsys
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err, err
     assert not (tmp_path / "runs").exists()
+
+
+def test_train_jax_makes_the_env_its_flags_choose() -> None:
+    """--coast, --terminal-reward, --expected-paths and --draws reach sail_env.jax.make (the defaults as none)."""
+    import train_jax
+
+    assert train_jax.env_options("default", None, "sampled") == ()
+    assert train_jax.env_options("fast", None, "expected", 64) == (
+        ("coast", "fast"), ("expected_paths", train_jax.EXPECTED_PATHS), ("terminal_reward", "expected"), ("draws", 64))
+    env, params = train_jax.task("LightSailRealistic-v0", train_jax.env_options("default", 4, "expected", 8))
+    assert (env.expected_paths, env.expected_reward, params.acceleration.shape) == (4, True, (8,))
+    assert train_jax.options_of({"env_options": {"expected_paths": 4}}) == (("expected_paths", 4),)
+    assert train_jax.options_of({}) == ()
 
 
 def test_train_jax_anneals_the_learning_rate_to_its_floor_unless_told_not_to() -> None:

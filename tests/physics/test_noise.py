@@ -316,3 +316,27 @@ def test_the_held_input_generator_gives_every_inputs_generator(n, m, jitter_inpu
         reference = mean_and_covariance(np.einsum("kij,kj->ki", scipy.linalg.expm(direct * 2.0), start))
         for ours, theirs in zip(moved, reference):
             np.testing.assert_allclose(ours, theirs, rtol=1e-10, atol=1e-12 * np.abs(theirs).max())
+
+
+def test_a_constant_input_column_joins_the_held_generators_constant():
+    """``held=m − 1``: the last column of ``B`` an input at 1 (a plant's constant term), not a held state: ``R G L(u)``
+    is the generator of the input ``(u, 1)``, in NumPy and in JAX alike."""
+    from sail_env.physics.noise import held_input_generator, held_input_maps, moment_generator
+
+    n, m = 8, 5
+    rng = np.random.default_rng(3)
+    a, b, a_push, b_push = _random_system(rng, n, m, -0.3)
+    noise, psd = WhiteNoise(push_psd_s=0.2), 0.4
+    held = held_input_generator(a, b, noise, (a_push, b_push), (0, 1), psd, held=m - 1)
+    assert held.shape == ((n + m) * (n + m + 1) // 2,) * 2  # (s, u, 1): no state for the constant column
+    pick, lift0, lift1, lift2 = held_input_maps(n, m - 1)
+    u = rng.standard_normal(m - 1)
+    lift = lift0 + np.tensordot(u, lift1, 1) + np.tensordot(np.outer(u, u), lift2, 2)
+    direct = moment_generator(a, b, np.append(u, 1.0), noise, (a_push, b_push), (0, 1), psd)
+    np.testing.assert_allclose(pick @ held @ lift, direct, rtol=0, atol=1e-14 * np.abs(direct).max())
+    pytest.importorskip("sail_env.jax")  # JAX with float64 (the backend turns it on)
+    import jax.numpy as jnp
+
+    in_jax = held_input_generator(jnp.asarray(a), jnp.asarray(b), noise, (jnp.asarray(a_push), jnp.asarray(b_push)),
+                                  (0, 1), psd, held=m - 1, xp=jnp)
+    np.testing.assert_allclose(np.asarray(in_jax), held, rtol=0, atol=1e-14 * np.abs(held).max())
