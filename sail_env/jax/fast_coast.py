@@ -55,7 +55,7 @@ class FastCoast:
     maps: jax.Array  # (K, P, h, h') whole piece j's: the (s, 1) moments at its end from those of (s, u, 1) at its start
     into: jax.Array  # (h', h') and back: the lifted moments' exact change of units (balancing)
     back: jax.Array
-    pre: jax.Array  # (K, Q, h, h) the coast from launch to control's pieces (the default's schedule, no command)
+    pre: jax.Array  # (K, Q, h, h) the coast from launch to control: Q even pieces (the most any draw's default takes)
     #: Whether a kink can fall inside a remainder piece (else its propagator is one exponential).
     rest_kinks: bool = struct.field(pytree_node=False, default=True)
 
@@ -81,7 +81,7 @@ def semidefinite_cholesky(matrix: jax.Array) -> jax.Array:
     columns = []
     for j in range(n):
         column = matrix[..., :, j]
-        for k, previous in enumerate(columns):
+        for previous in columns:
             column = column - previous * previous[..., j:j + 1]
         pivot = column[..., j]
         root = jnp.sqrt(jnp.where(pivot > PIVOT_FLOOR, pivot, 1.0))
