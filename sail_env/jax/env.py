@@ -819,15 +819,17 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
             final, lost = coast(noise.coast)
             return final, lost, None if noise.paths is None else coast(noise.paths)
 
-        def coast_from(normals: jax.Array) -> tuple[jax.Array, jax.Array]:
-            if self.along is not None:
-                return self._coast_along(params, d, x, held, state.cutoff - remaining, remaining, normals)
+        if self.along is None:  # one piece: its propagator serves the episode's coast and every path's
             pick, lift0, lift1, lift2 = (jnp.asarray(a, x.dtype) for a in held_input_maps(self.n_states, self.n_inputs))
             lift = lift0 + jnp.tensordot(held, lift1, 1) + jnp.tensordot(jnp.outer(held, held), lift2, 2)
             generator = params.coast_generator[d] @ lift
             balanced = generator * (remaining * params.into_units)
-            propagator = jax.scipy.linalg.expm(balanced, max_squarings=MAX_SQUARINGS) * params.from_units
-            final = self._sample(propagator @ self._moments(x), normals[0])
+            moments = (jax.scipy.linalg.expm(balanced, max_squarings=MAX_SQUARINGS) * params.from_units) @ self._moments(x)
+
+        def coast_from(normals: jax.Array) -> tuple[jax.Array, jax.Array]:
+            if self.along is not None:
+                return self._coast_along(params, d, x, held, state.cutoff - remaining, remaining, normals)
+            final = self._sample(moments, normals[0])
             return final, self._diverged(final, limits)
 
         final, lost = coast_from(noise.coast)
