@@ -10,7 +10,12 @@ read the simulator's true state and parameter draw, agents/oracle.py; no station
 or the path of a model saved by ``train.py`` (loaded with the VecNormalize statistics beside it, acting deterministically; its run's
 ``run.json`` says whether it needs them and which env it was trained on).
 Episode ``i`` is ``env.reset(seed=seed + i)`` for every agent, so all agents face the
-same start states, cut-off times and noise draws: the comparison is paired.
+same start states, cut-off times and noise draws: the comparison is paired. Each agent's success
+is reported twice: sampled (the episode's own coast to cut-off, the task as registered) and
+expected (``--expected-paths K`` further coasts from each window's end, the same episodes' numbers:
+the probability of success given the window's end, without the coast's coin flip, so the same
+episodes tell agents apart with a narrower interval). From the second agent on, the report gives
+each one's paired difference from the first, both ways.
 
 A bad argument, an unusable model, an unwritable ``--out`` or one that holds a report already
 (``--overwrite`` replaces it) is one line on stderr and exit code 2, before any episode runs and
@@ -57,7 +62,7 @@ from agents.mlp_policy import MlpPolicyAgent  # noqa: E402
 from agents.cli import (HelpFormatter, OneLineWarnings, Parser, UsageError, check_writable_dir, describe,  # noqa: E402
                         fail)
 from agents.sb3 import ModelLoadError, SB3Agent, one_thread_per_process, versions  # noqa: E402
-from sail_env.core.spec import EpisodeSpec  # noqa: E402
+from sail_env.core.spec import MAX_PATHS, EpisodeSpec  # noqa: E402
 from sail_env.physics.pointing import POINTING_TOLERANCE_RAD  # noqa: E402
 from sail_env.tasks import TASKS  # noqa: E402
 
@@ -79,6 +84,9 @@ TRAJECTORY_AXES = {False: (("x", "theta", "beam_offset", "beam_tilt"),),
 BATCH_EPISODES = 50
 #: Without a terminal (a log), a line at most this often while an agent plays [s]: not minutes of silence.
 LOG_EVERY_S = 30.0
+#: Further coasts per episode behind the expected success (``--expected-paths``): on
+#: LightSailUncertain-v2 they add ~30 % to an evaluation's time (64: ~170 %).
+EXPECTED_PATHS = 16
 
 
 def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Agent:
@@ -197,20 +205,22 @@ BOOTSTRAP = 10_000
 def paired_difference(success: np.ndarray, reference: np.ndarray, rng_seed: int = 0) -> dict[str, Any]:
     """Success of an agent minus a reference's over the same episodes: the difference, its 95 % paired
     bootstrap interval (episodes resampled together, :data:`BOOTSTRAP` times, a fixed seed) and, for
-    one run, McNemar's exact two-sided p-value on the discordant pairs (``wins``: the agent succeeds
-    where the reference fails; ``losses``: the reverse). ``success`` is booleans (episodes,) or, for
-    several seeds of a learner, (seeds, episodes), whose mean over the seeds is compared."""
-    success, reference = np.asarray(success, bool), np.asarray(reference, bool)
+    one run's booleans, McNemar's exact two-sided p-value on the discordant pairs (``wins``: the agent
+    succeeds where the reference fails; ``losses``: the reverse). ``success`` is (episodes,) or, for
+    several seeds of a learner, (seeds, episodes), whose mean over the seeds is compared: booleans, or
+    each episode's probability of success (the expected success)."""
+    success, reference = np.asarray(success), np.asarray(reference)
+    binary = success.dtype == bool and reference.dtype == bool
     runs = success.reshape(-1, success.shape[-1]) if success.ndim else success
     if success.ndim not in (1, 2) or reference.ndim != 1 or runs.shape[1] != len(reference) or not len(reference):
-        raise ValueError(f"success must be (episodes,) or (seeds, episodes) booleans over the reference's "
+        raise ValueError(f"success must be (episodes,) or (seeds, episodes) over the reference's "
                          f"(episodes,) episodes, got {success.shape} and {reference.shape}")
     diff = runs.mean(axis=0) - reference.astype(float)
     rng = np.random.default_rng(rng_seed)
     resampled = diff[rng.integers(0, len(diff), (BOOTSTRAP, len(diff)))].mean(axis=1)
     out = {"difference": float(diff.mean()), "ci95": [float(np.quantile(resampled, 0.025)),
                                                       float(np.quantile(resampled, 0.975))]}
-    if success.ndim == 1:
+    if success.ndim == 1 and binary:
         wins, losses = int(np.sum(success & ~reference)), int(np.sum(~success & reference))
         p = 1.0 if wins + losses == 0 else float(scipy.stats.binomtest(wins, wins + losses, 0.5).pvalue)
         out.update(wins=wins, losses=losses, mcnemar_p=p)
@@ -218,15 +228,32 @@ def paired_difference(success: np.ndarray, reference: np.ndarray, rng_seed: int 
 
 
 def summarise(episodes: list[dict[str, Any]]) -> dict[str, Any]:
-    """Success rate with its Wilson 95 % interval, pointing quantiles, mean return."""
+    """Success rate with its Wilson 95 % interval, the expected success (if the episodes have it) with
+    its normal 95 % interval, pointing quantiles, mean return."""
     n, wins = len(episodes), sum(e["success"] for e in episodes)
     pointing = np.array([e["terminal_pointing_rad"] for e in episodes])
-    return {"episodes": n, "success_rate": wins / n, "success_ci95": list(wilson_interval(wins, n)),
-            "terminal_pointing_rad": {"median": finite_or_none(np.median(pointing)),
-                                      "p90": finite_or_none(np.quantile(pointing, 0.9, method="lower")),
-                                      "max": finite_or_none(pointing.max())},
+    summary = {"episodes": n, "success_rate": wins / n, "success_ci95": list(wilson_interval(wins, n))}
+    if "expected_success" in episodes[0]:
+        expected = np.array([e["expected_success"] for e in episodes])
+        half = 1.96 * expected.std(ddof=1) / math.sqrt(n) if n > 1 else math.inf
+        summary.update(expected_success=float(expected.mean()),
+                       expected_success_ci95=[max(0.0, expected.mean() - half), min(1.0, expected.mean() + half)])
+    return {**summary, "terminal_pointing_rad": {"median": finite_or_none(np.median(pointing)),
+                                                 "p90": finite_or_none(np.quantile(pointing, 0.9, method="lower")),
+                                                 "max": finite_or_none(pointing.max())},
             "diverged": sum(e["diverged"] for e in episodes),
             "mean_return": float(np.mean([e["return"] for e in episodes]))}
+
+
+def paired_differences(results: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, Any]]:
+    """Each agent after the first against the first over the same episodes (:func:`paired_difference`):
+    ``success`` (sampled) and, where the episodes have it, ``expected_success``."""
+    (first, reference), *others = results.items()
+    out = {}
+    for name, episodes in others:
+        out[name] = {key: paired_difference(np.array([e[key] for e in episodes]), np.array([e[key] for e in reference]))
+                     for key in ("success", "expected_success") if key in reference[0]}
+    return {"reference": first, "agents": out} if out else {}
 
 
 # ---------------------------------------------------------------------- plots
@@ -474,11 +501,13 @@ def write_report_files(out: Path, env_id: str, config: dict[str, Any], results: 
                        trajectories: dict[str, np.ndarray]) -> dict[str, Any]:
     """report.json, episodes.csv, the plots and report.md in the folder ``out``, which exists."""
     summary = {name: summarise(episodes) for name, episodes in results.items()}
-    report = {"agents": summary, "env": env_id, "config": config, "versions": versions()}
+    report = {"agents": summary, "paired": paired_differences(results), "env": env_id, "config": config,
+              "versions": versions()}
     (out / "report.json").write_text(json.dumps(report, indent=2, allow_nan=False), encoding="utf-8")
 
-    columns = ["agent", "episode", "seed", *start_columns(next(iter(results.values()))[0]), "cutoff_s",
-               "terminal_pointing_rad", "success", "diverged", "return"]
+    first = next(iter(results.values()))[0]
+    columns = ["agent", "episode", "seed", *start_columns(first), "cutoff_s", "terminal_pointing_rad", "success",
+               *(["expected_success"] if "expected_success" in first else []), "diverged", "return"]
     with (out / "episodes.csv").open("w", newline="", encoding="utf-8") as file:
         writer = csv.DictWriter(file, columns, extrasaction="ignore")
         writer.writeheader()
@@ -490,7 +519,7 @@ def write_report_files(out: Path, env_id: str, config: dict[str, Any], results: 
     plot_pointing(results, out / "pointing.png", env_id)
     plot_trajectories(trajectories, out / "trajectories.png", env_id, three_d)
     plot_success_vs_tilt(results, out / "success_vs_tilt.png", env_id, three_d)
-    (out / "report.md").write_text(markdown(env_id, config, summary), encoding="utf-8")
+    (out / "report.md").write_text(markdown(env_id, config, summary, report["paired"]), encoding="utf-8")
     return report
 
 
@@ -503,16 +532,32 @@ def fmt_rad(value: float | None) -> str:
     return "diverged" if value is None else f"{value:.2e} rad"
 
 
-def markdown(env_id: str, config: dict[str, Any], summary: dict[str, dict[str, Any]]) -> str:
-    """The results table and the plots."""
+def difference_line(key: str, d: dict[str, Any]) -> str:
+    """One paired difference in points with its interval (and McNemar's p for the sampled success)."""
+    lo, hi = d["ci95"]
+    p = f", McNemar p = {d['mcnemar_p']:.2g}" if "mcnemar_p" in d else ""
+    return f"{key.replace('_', ' ')} {100 * d['difference']:+.1f} pts ({100 * lo:+.1f} … {100 * hi:+.1f}{p})"
+
+
+def markdown(env_id: str, config: dict[str, Any], summary: dict[str, dict[str, Any]],
+             paired: dict[str, Any]) -> str:
+    """The results table, the paired differences from the first agent and the plots."""
+    expected = "expected_success" in next(iter(summary.values()))
     lines = [f"# {env_id}: {config['episodes']} paired episodes (seeds {config['seed']}…"
              f"{config['seed'] + config['episodes'] - 1})", "",
-             "| agent | success (≤ 10 nrad) | 95 % CI | median pointing [rad] | p90 | max | diverged | mean return |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+             "| agent | success (≤ 10 nrad) | 95 % CI |" + (" expected success | 95 % CI |" if expected else "") +
+             " median pointing [rad] | p90 | max | diverged | mean return |",
+             "|---|---:|---:|" + ("---:|---:|" if expected else "") + "---:|---:|---:|---:|---:|"]
     for name, s in summary.items():
         p, (lo, hi) = s["terminal_pointing_rad"], s["success_ci95"]
-        lines.append(f"| {name} | {s['success_rate']:.1%} | {lo:.1%}–{hi:.1%} | {fmt(p['median'])} | "
+        cells = f" {s['expected_success']:.1%} | {s['expected_success_ci95'][0]:.1%}–{s['expected_success_ci95'][1]:.1%} |" \
+            if expected else ""
+        lines.append(f"| {name} | {s['success_rate']:.1%} | {lo:.1%}–{hi:.1%} |{cells} {fmt(p['median'])} | "
                      f"{fmt(p['p90'])} | {fmt(p['max'])} | {s['diverged']} | {s['mean_return']:.2f} |")
+    if paired:
+        lines += ["", f"Paired differences from {paired['reference']} (95 % paired bootstrap intervals):", ""]
+        lines += [f"- {name}: " + "; ".join(difference_line(key, d[key]) for key in d)
+                  for name, d in paired["agents"].items()]
     lines += ["", "![terminal pointing](pointing.png)", "",
               "![trajectories from the start of episode 0](trajectories.png)", "",
               "![success rate against initial tilt](success_vs_tilt.png)", ""]
@@ -522,8 +567,9 @@ def markdown(env_id: str, config: dict[str, Any], summary: dict[str, dict[str, A
 def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
               env_kwargs: dict[str, Any] | None = None, rewards: bool = False) -> list[dict[str, Any]]:
     """Episodes ``seed + i`` all at once on the vector env (the same episodes as :func:`run_episode`'s);
-    ``env_kwargs`` change the task's keywords; ``rewards``: each episode's rewards step by step too
-    (``"rewards"``, the last one the terminal step's)."""
+    ``env_kwargs`` change the task's keywords (``expected_paths``: each episode's ``expected_success``
+    too); ``rewards``: each episode's rewards step by step too (``"rewards"``, the last one the terminal
+    step's)."""
     envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {}))
     attach(agent, envs)
     obs, _ = envs.reset(seed=seed)
@@ -541,15 +587,18 @@ def run_batch(env_id: str, agent: Agent, episodes: int, seed: int,
         ended = terminated & running
         if ended.any():
             final = info["final_info"]
-            for key in ("cutoff_s", "terminal_pointing_rad", "is_success", "diverged"):
-                scores.setdefault(key, np.zeros(episodes))[ended] = final[key][ended]
+            for key in ("cutoff_s", "terminal_pointing_rad", "is_success", "diverged", "expected_success"):
+                if key in final:
+                    scores.setdefault(key, np.zeros(episodes))[ended] = final[key][ended]
         running &= ~terminated
     envs.close()
     names = envs.unwrapped.episode_spec.plant.state_names
     return [{"seed": seed + i, **{f"{k}0": float(start[i, j]) for j, k in enumerate(names)},
              "cutoff_s": float(scores["cutoff_s"][i]), "terminal_pointing_rad": float(scores["terminal_pointing_rad"][i]),
              "success": bool(scores["is_success"][i]), "diverged": bool(scores["diverged"][i]),
-             "return": float(returns[i]), **({"rewards": steps[i]} if rewards else {})} for i in range(episodes)]
+             "return": float(returns[i]), **({"rewards": steps[i]} if rewards else {}),
+             **({"expected_success": float(scores["expected_success"][i])} if "expected_success" in scores else {})}
+            for i in range(episodes)]
 
 
 def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: bool = True,
@@ -577,9 +626,9 @@ def run_agent(env_id: str, agent: Agent, episodes: int, seed: int, progress: boo
 
 
 def evaluate(env_id: str, specs: list[str], episodes: int, seed: int, raw_observations_ok: bool = False,
-             progress: bool = True) -> tuple[dict, dict]:
+             progress: bool = True, expected_paths: int = 0) -> tuple[dict, dict]:
     """Every agent on episodes ``seed … seed + episodes − 1``: :func:`load_agents`, then :func:`play`."""
-    return play(*load_agents(env_id, specs, raw_observations_ok), episodes, seed, progress)
+    return play(*load_agents(env_id, specs, raw_observations_ok), episodes, seed, progress, expected_paths)
 
 
 def load_agents(env_id: str, specs: list[str], raw_observations_ok: bool = False) -> tuple[gym.Env, list[Agent]]:
@@ -593,12 +642,15 @@ def load_agents(env_id: str, specs: list[str], raw_observations_ok: bool = False
     return env, agents
 
 
-def play(env: gym.Env, agents: list[Agent], episodes: int, seed: int, progress: bool = True) -> tuple[dict, dict]:
-    """Every agent on episodes ``seed … seed + episodes − 1`` of ``env``'s task; per-episode results,
-    and the trajectory of episode ``seed`` played on ``env`` (closed after)."""
+def play(env: gym.Env, agents: list[Agent], episodes: int, seed: int, progress: bool = True,
+         expected_paths: int = 0) -> tuple[dict, dict]:
+    """Every agent on episodes ``seed … seed + episodes − 1`` of ``env``'s task; per-episode results
+    (with ``expected_paths``, each episode's expected success too), and the trajectory of episode
+    ``seed`` played on ``env`` (closed after)."""
     results, trajectories = {}, {}
+    paths = {"expected_paths": expected_paths} if expected_paths else None
     for agent in agents:
-        results[agent.name] = run_agent(env.spec.id, agent, episodes, seed, progress)
+        results[agent.name] = run_agent(env.spec.id, agent, episodes, seed, progress, paths)
         trajectories[agent.name] = run_episode(env, agent, seed, trajectory=True)["trajectory"]
     env.close()
     return results, trajectories
@@ -612,6 +664,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help=f"one of {', '.join(BASELINES)}, a model .zip or a JAX run's policy.npz; repeat to compare")
     parser.add_argument("--episodes", type=int, default=200, help="paired episodes per agent")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses reset(seed=seed + i)")
+    parser.add_argument("--expected-paths", type=int, default=EXPECTED_PATHS, metavar="K",
+                        help="further coasts from each window's end behind the expected success (0: not reported)")
     parser.add_argument("--out", type=Path, help="report directory (default: reports/<env>, or the first free "
                                                  "reports/<env>_2, _3, …)")
     parser.add_argument("--overwrite", action="store_true", help="replace the report --out holds (refused otherwise)")
@@ -627,6 +681,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
     if args.seed < 0:
         parser.error(f"--seed must be >= 0, got {args.seed}")
+    if not 0 <= args.expected_paths <= MAX_PATHS:
+        parser.error(f"--expected-paths must be in [0, {MAX_PATHS}], got {args.expected_paths}")
     args.out = args.out or unused_report_dir(Path("reports") / args.env)
     check_out(args.out, args.overwrite)
     return args
@@ -649,12 +705,13 @@ def evaluate_and_report(argv: list[str] | None, warnings_shown: OneLineWarnings)
         one_thread_per_process()
         env, agents = load_agents(args.env, args.agent, args.raw_observations)
         warnings_shown.release()
-        results, trajectories = play(env, agents, args.episodes, args.seed, progress=not args.no_progress_bar)
+        results, trajectories = play(env, agents, args.episodes, args.seed, not args.no_progress_bar,
+                                     args.expected_paths)
     except (UsageError, ModelLoadError, ValueError) as err:
         return fail(err)
     # A model is recorded by the file it is, not the link it was reached by (runs/latest moves on).
     specs = [spec if spec in BASELINES else str(Path(spec).resolve()) for spec in args.agent]
-    config = {"episodes": args.episodes, "seed": args.seed, "agents": specs,
+    config = {"episodes": args.episodes, "seed": args.seed, "agents": specs, "expected_paths": args.expected_paths,
               "env_kwargs": {k: repr(v) for k, v in gym.spec(args.env).kwargs.items()}}
     try:
         report = write_report(args.out, args.env, config, results, trajectories, args.overwrite)
@@ -664,7 +721,12 @@ def evaluate_and_report(argv: list[str] | None, warnings_shown: OneLineWarnings)
         return fail(f"--out {args.out}: {err} (no report written, --out is as it was)")
     for name, s in report["agents"].items():
         lo, hi = s["success_ci95"]
-        print(f"{name:>32}: success {s['success_rate']:.1%} [{lo:.1%}, {hi:.1%}], "
+        expected = "" if "expected_success" not in s else (
+            f", expected {s['expected_success']:.1%} [{s['expected_success_ci95'][0]:.1%}, "
+            f"{s['expected_success_ci95'][1]:.1%}]")
+        print(f"{name:>32}: success {s['success_rate']:.1%} [{lo:.1%}, {hi:.1%}]{expected}, "
               f"median pointing {fmt_rad(s['terminal_pointing_rad']['median'])}, mean return {s['mean_return']:.2f}")
+    for name, d in report.get("paired", {}).get("agents", {}).items():
+        print(f"{name:>32}: {'; '.join(difference_line(key, d[key]) for key in d)} vs {report['paired']['reference']}")
     print(f"report: {args.out / 'report.md'}")
     return 0

@@ -94,7 +94,33 @@ def test_report_of_baselines_and_a_trained_agent(model: Path, tmp_path: Path) ->
     assert len({(r["episode"], r["x0"], r["theta0"], r["cutoff_s"]) for r in rows}) == 2
     for name in ("report.md", "pointing.png", "trajectories.png", "success_vs_tilt.png"):
         assert (out / name).is_file()
-    assert "| lqr | 100.0%" in (out / "report.md").read_text()
+    assert "| lqr | 100.0% | 34.2%–100.0% | 100.0%" in (out / "report.md").read_text()
+    # The expected success beside the sampled one (a fixed coast: the same), and each agent's paired
+    # differences from the first, both ways.
+    assert report["agents"]["lqr"]["expected_success"] == 1.0 and {r["expected_success"] for r in rows} <= {"0.0", "1.0"}
+    paired = report["paired"]
+    assert paired["reference"] == "passive" and len(paired["agents"]) == 2
+    lqr = paired["agents"]["lqr"]
+    assert set(lqr) == {"success", "expected_success"} and "mcnemar_p" in lqr["success"]
+    assert lqr["success"]["difference"] == lqr["expected_success"]["difference"] == 1.0 - report["agents"]["passive"][
+        "success_rate"]
+    assert "Paired differences from passive" in (out / "report.md").read_text()
+
+
+def test_the_expected_success_of_a_noisy_coast_is_reported_with_its_interval(tmp_path: Path) -> None:
+    """LightSailUncertain-v2: the expected success is each episode's share of 4 further coasts, within
+    [0, 1], its interval around it; with --expected-paths 0 it is not reported."""
+    assert evaluate.main(["--env", "LightSailUncertain-v2", "--agent", "passive", "--episodes", "2",
+                          "--expected-paths", "4", "--out", str(tmp_path / "a"), "--no-progress-bar"]) == 0
+    summary = _strict_json(tmp_path / "a" / "report.json")["agents"]["passive"]
+    lo, hi = summary["expected_success_ci95"]
+    assert 0 <= lo <= summary["expected_success"] <= hi <= 1
+    with (tmp_path / "a" / "episodes.csv").open() as file:
+        assert all(float(r["expected_success"]) * 4 % 1 == 0 for r in csv.DictReader(file))
+    assert evaluate.main(["--env", "LightSailUncertain-v2", "--agent", "passive", "--episodes", "2",
+                          "--expected-paths", "0", "--out", str(tmp_path / "b"), "--no-progress-bar"]) == 0
+    report = _strict_json(tmp_path / "b" / "report.json")
+    assert "expected_success" not in report["agents"]["passive"] and report["paired"] == {}
 
 
 def test_lqg_on_the_realistic_task(tmp_path: Path) -> None:
@@ -166,6 +192,7 @@ def _refused(argv: list[str], capsys: pytest.CaptureFixture, monkeypatch: pytest
     (["--agent", "lqr", "--bogus"], "unrecognized arguments: --bogus"),
     (["--agent", "lqx"], "lqx: neither a baseline (passive, lqr, lqg, lqr-oracle, lqg-oracle, lqg-mm, lqg-mm-offset) nor a model file"),
     (["--agent", "lqr", "--agent", "lqr"], "agent names must be distinct"),
+    (["--agent", "lqr", "--expected-paths", "-1"], "--expected-paths must be in [0, 1024], got -1"),
 ])
 def test_bad_arguments_are_one_line_and_exit_2_with_nothing_written(
         argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture,

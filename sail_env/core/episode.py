@@ -12,7 +12,10 @@ launch state (unless given), then in one call every standard normal the episode'
 can need (pre-control propagation, per-step beam jitter and push noise, sensor noise, the
 plant's random impacts), then the impacts' Poisson count of each step (if the plant has
 impacts); the coast draws its normals when it comes. A batch of environments therefore plays
-exactly the episodes each would play alone with the same seed, whatever N is.
+exactly the episodes each would play alone with the same seed, whatever N is. The score's further
+coasts (``expected_paths``) draw from a generator of their own, made at the coast by jumping a copy
+of the environment's (``bit_generator.jumped()``, which leaves it as it was): an episode's numbers
+are the same with them or without.
 """
 
 from __future__ import annotations
@@ -46,6 +49,9 @@ class StepResult:
     terminal_envelope_rad: np.ndarray | None = None
     terminal_state: np.ndarray | None = None  # (N, n), NaN where not scored
     success: np.ndarray | None = None  # (N,) bool: :func:`~sail_env.core.reward.succeeded` of the pointing
+    # (N,) the share of the score's further coasts that succeed (spec.expected_paths): the probability of
+    # success given the window's end, estimated; 0 after a divergence, NaN where not ended; None without paths.
+    expected_success: np.ndarray | None = None
 
 
 class EpisodeCore:
@@ -238,10 +244,14 @@ class EpisodeCore:
         pointing, terminal_envelope = np.full(self.num_envs, np.nan), np.full(self.num_envs, np.nan)
         terminal_state = np.full((self.num_envs, plant.n_states), np.nan)
         scored = np.flatnonzero(state.terminated & (1 - diverged))
+        if self.spec.expected_paths:
+            result.expected_success = np.where(state.terminated.astype(bool), 0.0, np.nan)
         if len(scored):
-            final, final_input, coast_diverged = self._coast(scored)
+            final, final_input, coast_diverged, paths = self._coast(scored)
             params = state.params.take(scored)
             pointing[scored] = plant.pointing(params, final, state.cutoff_s[scored])
+            if paths is not None:
+                result.expected_success[scored] = self._expected_success(params, scored, *paths)
             terminal_envelope[scored] = self._peak_speeds(scored, final, final_input) / state.speed_at_cutoff[scored]
             terminal_state[scored] = final
             reward[scored] += -log_ratio(pointing[scored]) + np.where(succeeded(pointing[scored]), SUCCESS_BONUS, 0.0)
@@ -251,6 +261,13 @@ class EpisodeCore:
         reward[lost] = DIVERGENCE_PENALTY
         result.terminal_pointing_rad, result.terminal_envelope_rad = pointing, terminal_envelope
         result.terminal_state, result.success = terminal_state, succeeded(pointing)
+
+    def _expected_success(self, params: object, index: np.ndarray, finals: np.ndarray, lost: np.ndarray) -> np.ndarray:
+        """The share of each environment's further coasts (``finals`` (k, K, n), ``lost`` (k, K)) that
+        end inside the tolerance without leaving the beam."""
+        won = [succeeded(self.spec.plant.pointing(params, finals[:, path], self.state.cutoff_s[index])) & ~lost[:, path]
+               for path in range(finals.shape[1])]
+        return np.mean(won, axis=0)
 
     def _peak_speeds(self, index: np.ndarray, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """The envelope's lateral speed of environments ``index`` at ``x`` with ``u`` (k, m) held (the kernel's)."""
@@ -262,9 +279,11 @@ class EpisodeCore:
         return out
 
     # ------------------------------------------------------------------ coast and observation
-    def _coast(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _coast(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple | None]:
         """From the end of the window to cut-off: the commands still in flight step by step, then
-        the last command held to cut-off. Returns the end states, the held inputs and divergence."""
+        the last command held to cut-off. Returns the end states, the held inputs, divergence and,
+        with ``expected_paths``, the further coasts' end states (k, K, n) and divergences (k, K)
+        from the same state after the commands in flight (a fixed coast's are its own)."""
         spec, plant, state = self.spec, self.spec.plant, self.state
         params = state.params.take(index)
         if spec.light_delay:
@@ -275,15 +294,23 @@ class EpisodeCore:
             x, step = state.x[index], state.step[index]
         held = state.last_command[index]
         remaining = np.maximum(state.cutoff_s[index] - (spec.config.control_start_s + step * spec.dt), 0.0)
-        normals = None
+        normals = paths = None
+        count_paths = spec.expected_paths
         if plant.noisy:
             # Each environment draws its own pieces' normals: a batch plays the single episodes.
             pieces = plant.coast_pieces(params, remaining)
             normals = np.zeros((len(index), int(pieces.max()), plant.n_states))
+            paths = np.zeros((len(index), count_paths, int(pieces.max()), plant.n_states)) if count_paths else None
             for row, (i, count) in enumerate(zip(index, pieces)):
+                if count_paths:  # before the episode's own draws, from a jumped copy (the module's docstring)
+                    own = np.random.Generator(state.rngs[i].bit_generator.jumped())
+                    paths[row, :, :count] = own.standard_normal((count_paths, count, plant.n_states))
                 normals[row, :count] = state.rngs[i].standard_normal((count, plant.n_states))
-        final, diverged = plant.coast(params, x, held, remaining, normals, state.cutoff_s[index] - remaining)
-        return final, held, diverged
+        final, diverged, path_x, path_lost = plant.coast_with_paths(params, x, held, remaining, normals, paths,
+                                                                    state.cutoff_s[index] - remaining)
+        if count_paths and path_x is None:
+            path_x, path_lost = np.repeat(final[:, None], count_paths, axis=1), np.repeat(diverged[:, None], count_paths, 1)
+        return final, held, diverged, None if not count_paths else (path_x, path_lost)
 
     def observe(self, index: np.ndarray | None = None) -> np.ndarray:
         """Observations (k, D) of environments ``index`` (default all) at their current step."""

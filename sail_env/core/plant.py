@@ -33,7 +33,7 @@ parameter draws. SI units throughout.
 | ``impulse_rows``, ``impact_rate_and_std(p, t)`` | random impacts (the impulse channel, e.g. dust): the rows they kick, their rate and size |
 | ``flight_model(p)`` | what a coast along the flight reads of draws ``p`` (the 3D plant's tables and per-draw arrays; None for a model that does not change along it): the JAX backend's coast |
 | ``jitter_std_along(distance, xp)``, ``impacts_along(speed, xp)`` | the beam offsets' size and the impacts' rate and size as laws of the sail's distance and speed, in an array module (what the JAX backend reads along a flight) |
-| ``coast_pieces(p, duration)``, ``coast(p, x, u, duration, normals, start_s)`` | the propagation to cut-off with the noise's exact moments, and how many normals it draws |
+| ``coast_pieces(p, duration)``, ``coast(p, x, u, duration, normals, start_s)``, ``coast_with_paths(…, normals, paths, start_s)`` | the propagation to cut-off with the noise's exact moments, and how many normals it draws; with further paths through the same propagators (the score's expectation) |
 | ``time_varying``, ``piece_propagators(p, u, start_s, duration)``, ``held_input_generator(p, t)`` | whether the coast's model changes along the flight; one coast piece's propagator, and the moment generator of every held input at once (what the JAX backend is handed to coast as the compiled core does) |
 """
 
@@ -139,6 +139,9 @@ class Plant(Protocol):
 
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
               normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def coast_with_paths(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
+                         normals: np.ndarray | None, paths: np.ndarray | None, start_s: np.ndarray) -> tuple: ...
 
     def piece_propagators(self, p: PlantParams, u: np.ndarray, start_s: np.ndarray,
                           duration: np.ndarray) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...

@@ -26,6 +26,15 @@ TIME_TOLERANCE_S = 1e-9
 #: push_noise, sources)`` (``sources``: :attr:`~sail_env.physics.randomisation.Randomisation.sources`),
 #: e.g. ``functools.partial(PlanarPlant, config)``.
 PlantFactory = Callable[[float, float, tuple[Disturbance, ...]], Plant]
+#: Most further coasts an episode's score may be averaged over (``expected_paths``).
+MAX_PATHS = 1024
+
+
+def check_expected_paths(value: object) -> int:
+    """``expected_paths`` as an int in [0, :data:`MAX_PATHS`]; ``ValueError`` naming it otherwise."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not 0 <= value <= MAX_PATHS:
+        raise ValueError(f"expected_paths must be an int in [0, {MAX_PATHS}], got {value!r}")
+    return int(value)
 
 
 class EpisodeSpec:
@@ -51,11 +60,16 @@ class EpisodeSpec:
             light delay, with a step of margin each way for the parameter draw; else 0).
         max_delay: Largest one-way delay [steps] any parameter draw can see up to the
             last command's arrival (sizes the core's buffers).
+        expected_paths: The score's further coasts ``K``: at each episode's end, ``K`` more coasts
+            from the window's end (the state after the commands in flight) estimate the probability
+            of success given it (``info["expected_success"]``); 0: none. They draw from a stream of
+            their own, so the episode's numbers are the same with them or without.
     """
 
     def __init__(self, make_plant: PlantFactory, *, start_half_widths: Sequence[float],
                  max_beam_offset_m: float = 0.02, max_beam_tilt_rad: float = 2e-3,
-                 light_delay: bool = False, randomisation: Randomisation = Randomisation()) -> None:
+                 light_delay: bool = False, randomisation: Randomisation = Randomisation(),
+                 expected_paths: int = 0) -> None:
         scales = [real_number(v, name) for name, v in (("max_beam_offset_m", max_beam_offset_m),
                                                       ("max_beam_tilt_rad", max_beam_tilt_rad))]
         for name, value in zip(("max_beam_offset_m", "max_beam_tilt_rad"), scales):
@@ -64,6 +78,7 @@ class EpisodeSpec:
         if not isinstance(light_delay, (bool, np.bool_)):
             raise ValueError(f"light_delay must be True or False, got {light_delay!r}")
         self.light_delay = bool(light_delay)
+        self.expected_paths = check_expected_paths(expected_paths)
         self.randomisation = randomisation
         self.plant: Plant = make_plant(randomisation.parameter_spread, randomisation.push_noise, randomisation.sources)
         self.config = config = self.plant.config
@@ -215,9 +230,10 @@ class EpisodeSpec:
 
 def task_spec(make_plant: PlantFactory, default_start_half_widths: Sequence[float], *,
               start_half_widths: Sequence[float] | None = None, max_beam_offset_m: float = 0.02,
-              max_beam_tilt_rad: float = 2e-3, light_delay: bool = False, **randomness: object) -> EpisodeSpec:
+              max_beam_tilt_rad: float = 2e-3, light_delay: bool = False, expected_paths: int = 0,
+              **randomness: object) -> EpisodeSpec:
     """The spec of an env's episode keywords: the beam limits, the start box (the env's
-    ``default_start_half_widths`` unless given), the light delay and the randomisation's keywords
+    ``default_start_half_widths`` unless given), the light delay, the score's paths and the randomisation's keywords
     (:mod:`sail_env.physics.randomisation`: its own and the registered disturbances'). The one place
     every env's shared keywords are spelled out (their table is in the randomisation's module and the
     env docstrings); an unknown one is a ``TypeError`` naming it."""
@@ -226,4 +242,5 @@ def task_spec(make_plant: PlantFactory, default_start_half_widths: Sequence[floa
         raise TypeError(f"unexpected keyword argument {sorted(unknown)[0]!r}")
     widths = default_start_half_widths if start_half_widths is None else start_half_widths
     return EpisodeSpec(make_plant, start_half_widths=widths, max_beam_offset_m=max_beam_offset_m,
-                       max_beam_tilt_rad=max_beam_tilt_rad, light_delay=light_delay, randomisation=given)
+                       max_beam_tilt_rad=max_beam_tilt_rad, light_delay=light_delay, randomisation=given,
+                       expected_paths=expected_paths)

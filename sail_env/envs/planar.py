@@ -107,7 +107,10 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
 
     1. Termination: the end of the control window; the flight is then scored at cut-off.
        ``info["terminal_pointing_rad"]``, ``info["terminal_envelope_rad"]`` and
-       ``info["is_success"]`` (pointing ≤ 10 nrad) are set.
+       ``info["is_success"]`` (pointing ≤ 10 nrad) are set; with ``expected_paths=K``,
+       ``info["expected_success"]`` too: the share of ``K`` further coasts from the window's end
+       that succeed, an unbiased estimate of the probability of success given it (0 after a
+       divergence in the window; the episode's own numbers are the same with it or without).
     2. Termination: divergence: the sail leaves the beam (``|X|`` or ``|Lc θ|`` beyond
        the aperture radius) or the small-angle regime (``|θ| > 0.05 rad``), during the
        window or the coast. ``info["diverged"] = True``, ``is_success = False``.
@@ -120,7 +123,8 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
     | ``max_beam_offset_m`` | 0.02 | beam offset at action +1 |
     | ``max_beam_tilt_rad`` | 0.002 | beam tilt at action +1 |
     | ``start_half_widths`` | see above | uniform start half-widths ``(X, Vx, θ, ω)`` |
-    | ``sensor_noise_std``, ``beam_jitter_m``, ``push_noise``, ``cutoff_jitter_s``, ``light_delay``, ``parameter_spread`` | off | see :class:`~sail_env.physics.randomisation.Randomisation`; ``light_delay``: :class:`~sail_env.core.EpisodeSpec` |
+    | ``expected_paths`` | 0 | further coasts behind ``info["expected_success"]`` (0 … 1024; 0: not given) |
+| ``sensor_noise_std``, ``beam_jitter_m``, ``push_noise``, ``cutoff_jitter_s``, ``light_delay``, ``parameter_spread`` | off | see :class:`~sail_env.physics.randomisation.Randomisation`; ``light_delay``: :class:`~sail_env.core.EpisodeSpec` |
     | ``render_mode`` | None | ``"rgb_array"``; ``gym.make(..., render_mode="human")`` shows its frames in a window through Gymnasium's ``HumanRendering`` (needs pygame) |
 
     ``info["state"]`` holds the true state in SI (``x``, ``vx``, ``theta``, ``omega``) and
@@ -231,6 +235,8 @@ class LightSailEnv(gym.Env[np.ndarray, np.ndarray]):
                         terminal_envelope_rad=float(result.terminal_envelope_rad[0]),
                         is_success=bool(result.success[0]), diverged=bool(state.diverged[0]),
                         cutoff_s=float(state.cutoff_s[0]))
+            if result.expected_success is not None:
+                info["expected_success"] = float(result.expected_success[0])
             if not state.diverged[0]:
                 info.update(envelope_rad=float(state.envelope[0]), terminal_state=self._named(result.terminal_state[0]))
         else:

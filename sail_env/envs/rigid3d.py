@@ -93,7 +93,7 @@ class LightSail3DEnv(LightSailEnv):
 
     1. Termination: the end of the control window; the flight is scored at cut-off:
        ``info["terminal_pointing_rad"]`` (``√(vx² + vy²) / Vz``), ``info["terminal_envelope_rad"]``,
-       ``info["is_success"]`` (pointing ≤ 10 nrad).
+       ``info["is_success"]`` (pointing ≤ 10 nrad); with ``expected_paths``, ``info["expected_success"]``.
     2. Termination: divergence: the CoM leaves the aperture (``√(x² + y²) > a``) or the
        tilt exceeds ``min(a/Lc, 0.05 rad)``, during the window or the coast.
 
@@ -119,6 +119,7 @@ class LightSail3DEnv(LightSailEnv):
     | ``max_beam_offset_m``, ``max_beam_tilt_rad`` | 0.02, 0.002 | beam input at action +1 | finite, ``> 0`` |
     | ``start_half_widths`` | see above | 8 half-widths in state order | the box's corner inside the start limits (``√(x² + y²) ≤ a`` and so on) |
     | ``sensor_noise_std`` (8 values), ``beam_jitter_m`` (per axis), ``push_noise``, ``cutoff_jitter_s``, ``light_delay`` | off | see :class:`~sail_env.physics.randomisation.Randomisation`; ``light_delay``: :class:`~sail_env.core.EpisodeSpec` | ``beam_jitter_m ≤ a``; ``cutoff_jitter_s`` up to the cut-off minus the last command's arrival |
+    | ``expected_paths`` | 0 | further coasts from the window's end behind the expected success (Episode End) | an int in ``[0, 1024]`` |
     | ``parameter_spread`` | 0 | relative spread of the mass, the inertia tensor and the beam power | ``[0, 0.5)`` |
     | ``model_uncertainty`` | None | unobserved per-episode draws of the dish's curvature, the absorptivity, the power reaching the sail and a constant beam offset (a :class:`~sail_env.physics.rigid3d.uncertainty.ModelUncertainty` or a dict of its fields; ``LightSailUncertain-v2``, see below) | curvature ``[0, 0.5]`` keeping ``R > a``, absorptivity ``[0, 1]`` keeping ``α ≤ 1``, power ``[0, 0.5]``, beam offset ``[0, a]``: a constant offset beyond the rim centres the spot off the sail |
 

@@ -13,7 +13,7 @@ per-environment models); the 3D ids reach it through ``sail_env.envs.rigid3d.rig
 Autoreset is ``SAME_STEP``: when an episode ends, the returned observation already
 belongs to the next episode; the last one's is in ``info["final_obs"]`` and its score in
 ``info["final_info"]`` (``terminal_pointing_rad``, ``terminal_envelope_rad``,
-``is_success``, ``diverged``, ``cutoff_s``), each with its ``_key`` mask, as Gymnasium's
+``is_success``, ``diverged``, ``cutoff_s``; ``expected_success`` with ``expected_paths``), each with its ``_key`` mask, as Gymnasium's
 ``SyncVectorEnv`` reports them. No other info is built per step.
 """
 
@@ -132,6 +132,8 @@ class LightSailVectorEnv(VectorEnv):
             scores = {"terminal_pointing_rad": result.terminal_pointing_rad,
                       "terminal_envelope_rad": result.terminal_envelope_rad, "is_success": result.success,
                       "diverged": result.diverged.astype(bool), "cutoff_s": self.state.cutoff_s.copy()}
+            if result.expected_success is not None:
+                scores["expected_success"] = result.expected_success
             final_info: dict[str, Any] = {}
             for key, value in scores.items():
                 final_info[key], final_info[f"_{key}"] = value, terminated

@@ -244,12 +244,12 @@ class LinearPlant:
         return out
 
     def diverged(self, p: PlantParams, x: np.ndarray) -> np.ndarray:
-        """Whether each sail has left the beam or the small-angle regime by :attr:`divergence_groups`
-        (NaN counts as left)."""
-        inside = np.ones(len(x), dtype=bool)
+        """Whether each sail (``x``: (k, n), or (k, …, n) of each environment's) has left the beam or the
+        small-angle regime by :attr:`divergence_groups` (NaN counts as left)."""
+        inside = np.ones(x.shape[:-1], dtype=bool)
         for column, rows in enumerate(self.divergence_groups):
-            size = np.abs(x[:, rows[0]]) if len(rows) == 1 else np.hypot(x[:, rows[0]], x[:, rows[1]])
-            inside &= size <= p.limits[:, column]
+            size = np.abs(x[..., rows[0]]) if len(rows) == 1 else np.hypot(x[..., rows[0]], x[..., rows[1]])
+            inside &= size <= p.limits[:, column].reshape(-1, *[1] * (x.ndim - 2))
         return ~inside
 
     def start_limits(self) -> np.ndarray:
@@ -325,7 +325,6 @@ class LinearPlant:
         along it; the 3D plant's ``FlightModel``."""
         return None
 
-    @single_threaded
     def coast(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
               normals: np.ndarray | None, start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Propagate ``duration`` (k,) seconds from flight time ``start_s`` (k,) with ``u`` held and
@@ -338,10 +337,23 @@ class LinearPlant:
         the flight (:meth:`_coast_params`) holds each piece's model at the piece's middle.
         Returns ``(x, diverged)``.
         """
+        return self.coast_with_paths(p, x, u, duration, normals, None, start_s)[:2]
+
+    @single_threaded
+    def coast_with_paths(self, p: PlantParams, x: np.ndarray, u: np.ndarray, duration: np.ndarray,
+                         normals: np.ndarray | None, paths: np.ndarray | None,
+                         start_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """:meth:`coast`, and with ``paths`` (k, K, pieces, n) of a noisy plant K further coasts of each
+        environment from the same ``x``, drawn through the same pieces' propagators (so they cost the
+        draws, not the exponentials): ``(x, diverged, path_x (k, K, n), path_diverged (k, K))``, the
+        last two None without ``paths``. The first two are :meth:`coast`'s to the last bit."""
         pieces = self.coast_pieces(p, duration)
         piece = duration / pieces
         total = int(pieces.max())
         diverged = np.zeros(len(x), dtype=bool)
+        path_x = path_lost = None
+        if paths is not None:
+            path_x, path_lost = np.repeat(x[:, None], paths.shape[1], axis=1), np.zeros(paths.shape[:2], dtype=bool)
         # One propagator serves every piece of a time-invariant model; a time-varying one's are
         # built a batch of pieces at a time (one call instead of one per piece).
         batch = max(1, COAST_BATCH // len(x)) if self.time_varying else total
@@ -364,7 +376,11 @@ class LinearPlant:
                         moved = np.einsum("...ij,...j->...i", phi, x) + drive
                 x = np.where(active[:, None], moved, x)
                 diverged |= active & self.diverged(p, x)
-        return x, diverged
+                if paths is not None:
+                    live = (first + j < pieces)[:, None] & ~path_lost
+                    path_x = self._sample_paths(propagator, path_x, live, paths[:, :, first + j])
+                    path_lost |= live & self.diverged(p, path_x)
+        return x, diverged, path_x, path_lost
 
     def _sample_piece(self, propagator: np.ndarray, x: np.ndarray, active: np.ndarray,
                       normals: np.ndarray) -> np.ndarray:
@@ -383,11 +399,17 @@ class LinearPlant:
         with np.errstate(over="ignore", invalid="ignore"):
             # matmul, not einsum: the same BLAS call per environment whatever the batch's size
             # and layout, so a batch plays the single environments' episodes to the last bit.
-            mean, cov = mean_and_covariance((propagator[rows] @ start[:, :, None])[:, :, 0])
-        finite = np.isfinite(mean).all(axis=-1) & np.isfinite(cov).all(axis=(-2, -1))
-        moved[rows] = np.nan
-        moved[rows[finite]] = sample_gaussian(mean[finite], cov[finite], normals[rows[finite]])
+            moved[rows] = _drawn((propagator[rows] @ start[:, :, None])[:, :, 0], normals[rows])
         return moved
+
+    def _sample_paths(self, propagator: np.ndarray, x: np.ndarray, active: np.ndarray,
+                      normals: np.ndarray) -> np.ndarray:
+        """:meth:`_sample_piece` of each environment's K paths (k, K, n) through its one propagator
+        (k, h, h), ``active`` (k, K): one product of the paths' second moments with each propagator."""
+        start = second_moment(x, np.zeros((*x.shape, self.n_states)))
+        with np.errstate(over="ignore", invalid="ignore"):
+            moved = _drawn(start @ np.swapaxes(propagator, -1, -2), normals)
+        return np.where(active[..., None], moved, x)
 
     #: Whether :meth:`_coast_params` depends on the time (then each piece has its own model).
     time_varying = False
@@ -415,3 +437,13 @@ class LinearPlant:
         phi, gamma = zoh_discretize(q.a, q.b, piece[rows])
         drive = np.einsum("...ij,...j->...i", gamma, self.with_bias(u)[rows])
         return [(phi.reshape(k, count, *phi.shape[1:])[:, j], drive.reshape(k, count, -1)[:, j]) for j in range(count)]
+
+
+def _drawn(second: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """States (..., n) drawn with ``normals`` (..., n) from the Gaussians of second moments (..., h)
+    (:func:`~sail_env.physics.noise.second_moment`); NaN where the moments overflowed."""
+    mean, cov = mean_and_covariance(second)
+    finite = np.isfinite(mean).all(axis=-1) & np.isfinite(cov).all(axis=(-2, -1))
+    out = np.full(mean.shape, np.nan)
+    out[finite] = sample_gaussian(mean[finite], cov[finite], normals[finite])
+    return out

@@ -163,3 +163,9 @@ def test_paired_difference_of_several_seeds_compares_their_mean():
     assert out["difference"] == pytest.approx(0.0) and "mcnemar_p" not in out
     assert out["ci95"][0] < 0 < out["ci95"][1]
     assert paired_difference(seeds[:1], np.ones(4, bool))["difference"] == pytest.approx(-0.5)
+
+
+def test_paired_difference_of_probabilities_has_no_mcnemar_test():
+    """The expected success (each episode's probability): the mean difference, and no McNemar test."""
+    out = paired_difference(np.array([0.5, 0.25, 1.0]), np.array([0.0, 0.25, 0.75]))
+    assert out["difference"] == pytest.approx(0.25) and "mcnemar_p" not in out

@@ -135,7 +135,8 @@ NUMERIC = {"curvature_radius_m": 12.0, "com_distance_m": 9.0, "absorptivity": 0.
 
 def test_the_numeric_table_covers_every_numeric_keyword():
     skip = {"sail_shape", "beam_profile", "relativistic", "velocity_terms", "light_delay", "start_half_widths",
-            "sensor_noise_std", "model_uncertainty"}  # model_uncertainty: its fields, tests/physics/test_uncertainty.py
+            "sensor_noise_std", "model_uncertainty",  # model_uncertainty: its fields, tests/physics/test_uncertainty.py
+            "expected_paths"}  # a count: tests/core/test_expected_success.py
     assert set(NUMERIC) == set(env_keywords()) - skip
 
 
