@@ -335,8 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parser.parse_args(argv)
         if args.resume is not None:
-            given = [name for name, value in vars(args).items()
-                     if name not in RESUME_APPLIES and value != parser.get_default(name)]
+            given = sorted(cli.given_flags(parser, argv) - set(RESUME_APPLIES))
             if given:
                 raise cli.UsageError("--resume continues the run with its own settings: "
                                      f"drop {flag_of(parser, given[0])}")

@@ -68,6 +68,19 @@ def distinct(values: list, flag: str) -> list:
     return values
 
 
+def given_flags(parser: argparse.ArgumentParser, argv: list[str] | None) -> set[str]:
+    """The destinations of the options ``argv`` names (a flag given at its default value included, which
+    comparing values with the defaults cannot tell apart), by parsing it again with no defaults."""
+    defaults = [(action, action.default) for action in parser._actions]
+    try:
+        for action, _ in defaults:
+            action.default = argparse.SUPPRESS
+        return set(vars(parser.parse_args(argv)))
+    finally:
+        for action, default in defaults:
+            action.default = default
+
+
 def fail(message: object) -> int:
     """Print ``error: message`` as one line on stderr; the exit code of a refused input."""
     print(f"error: {' '.join(str(message).split())}", file=sys.stderr)

@@ -237,7 +237,7 @@ class Coast:
         if self.impulse_rows:
             rate, kick = self.plant.impacts_along(self.speed(along, d, t), jnp)
             rows = jnp.array(self.impulse_rows)
-            impacts = jnp.zeros((self.n, self.n), a.dtype).at[rows, rows].set(rate * kick ** 2)
+            impacts = jnp.zeros((self.n, self.n), a.dtype).at[rows, rows].set(jnp.asarray(rate * kick ** 2, a.dtype))
         return a, b, jitter_psd, impacts
 
     def generator(self, along: AlongFlight, d: jax.Array, u: jax.Array, t: jax.Array) -> jax.Array:

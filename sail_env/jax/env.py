@@ -55,7 +55,7 @@ from gymnax.environments import environment, spaces
 
 from sail_env.core.episode import OBSERVATION_LIMIT
 from sail_env.core.reward import DIVERGENCE_PENALTY, SUCCESS_BONUS, succeeded
-from sail_env.core.spec import EpisodeSpec
+from sail_env.core.spec import EpisodeSpec, check_expected_paths
 from sail_env.jax import along as along_module
 from sail_env.jax.along import AlongFlight, Coast, along_of
 from sail_env.jax.arith import divide, log_ratio, ordered_dot
@@ -87,8 +87,6 @@ ACCELERATOR_CHUNK = 256
 COASTS = ("default", "fast")
 #: The terminal rewards (``terminal_reward=``): the sampled coast's, or its mean over ``expected_paths`` coasts.
 TERMINAL_REWARDS = ("sampled", "expected")
-#: The most further coasts an episode's score may average over.
-MAX_PATHS = 1024
 #: θ₁₃ of the Padé approximant ``jax.scipy.linalg.expm`` uses: it squares ``log2(‖A‖₁ / θ₁₃)`` times.
 _PADE13_THETA = 5.371920351148152
 
@@ -194,6 +192,10 @@ class EnvParams:
     coast_pieces: int = struct.field(pytree_node=False, default=1)
     #: The most pieces of the coast from launch to the first pre-control step.
     pre_pieces: int = struct.field(pytree_node=False, default=1)
+    #: What the env's functions are compiled for (:func:`variant_of`): params of another variant are refused.
+    #: A noise the env was not made with is not drawn, so the arrays that size it (``sensor_std``,
+    #: ``push_noise``, ``cutoff_jitter_s``) do nothing there: make the env with the keyword instead.
+    variant: tuple = struct.field(pytree_node=False, default=())
 
 
 def params_of(spec: EpisodeSpec, dtype: jnp.dtype = jnp.float64, draws: int = DRAWS) -> EnvParams:
@@ -295,7 +297,20 @@ def bank_of(spec: EpisodeSpec, factors: np.ndarray, dtype: jnp.dtype = jnp.float
         sensor_std=array(spec.sensor_noise_std), push_noise=array(dist.push_noise), into_units=array(into),
         from_units=array(back), control_start_s=array(config.control_start_s), dt=array(spec.dt),
         beam_cutoff_s=array(cutoff), cutoff_jitter_s=array(dist.cutoff_jitter_s), factors=array(factors), along=along,
-        max_steps_in_episode=spec.n_steps, coast_pieces=pieces, pre_pieces=pre_pieces)
+        max_steps_in_episode=spec.n_steps, coast_pieces=pieces, pre_pieces=pre_pieces, variant=variant_of(spec))
+
+
+def variant_of(spec: EpisodeSpec) -> tuple[tuple[str, object], ...]:
+    """The choices of a task that decide what its JAX functions compute (each with its keyword's name):
+    the params of one variant play on the env of another only where these agree. The sizes within a
+    variant (how strong a noise is) are arrays of the params, and may change."""
+    plant, dist = spec.plant, spec.randomisation
+    return (("light_delay", spec.light_delay), ("sensor_noise_std", dist.any_sensor_noise),
+            ("push_noise", bool(dist.push_noise)), ("cutoff_jitter_s", bool(dist.cutoff_jitter_s)),
+            ("parameter_spread", bool(dist.parameter_spread)), ("noisy coast", plant.noisy),
+            ("beam jitter", tuple(plant.jitter_inputs) if plant.jittered else ()),
+            ("impacts", tuple(plant.impulse_rows)), ("states", plant.n_states), ("inputs", plant.n_inputs),
+            ("steps", spec.n_steps), ("delay steps", spec.max_delay))
 
 
 def arrived_command(step: jax.Array, delay: jax.Array, newest: jax.Array | int) -> jax.Array:
@@ -400,9 +415,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         if coast == "fast" and not plant.time_varying:
             raise ValueError("coast='fast' is for the tasks whose coast follows the flight (the realistic 3D and "
                              "uncertain tasks); this task's coast is one piece already")
-        if isinstance(expected_paths, bool) or not isinstance(expected_paths, (int, np.integer)) or not (
-                0 <= expected_paths <= MAX_PATHS):
-            raise ValueError(f"expected_paths must be an int in [0, {MAX_PATHS}], got {expected_paths!r}")
+        expected_paths = check_expected_paths(expected_paths)
         if terminal_reward not in TERMINAL_REWARDS:
             raise ValueError(f"terminal_reward must be one of {', '.join(TERMINAL_REWARDS)}, got {terminal_reward!r}")
         if terminal_reward == "expected" and not expected_paths:
@@ -429,6 +442,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         self.biased = plant.with_bias(np.zeros((1, self.n_inputs))).shape[1] > self.n_inputs
         self.impulse_rows = tuple(plant.impulse_rows)
         self._params = params_of(spec, dtype, draws)  # first: it refuses, by name, what the backend lacks
+        self.variant = self._params.variant
         #: The coast of a model that changes along the flight (None: one fixed model).
         self.along = Coast(plant, plant.flight_model(plant.params(np.ones((1, plant.n_factors))))) if (
             plant.time_varying) else None
@@ -551,6 +565,7 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         """An episode from given draws (:class:`EpisodeStart`): the launch propagated to the start of
         control (beam off; with light delay, the last ``lag0`` steps one by one, kept for the delayed
         observations). The same-draws entry the cross-backend tests feed both backends through."""
+        self._check_params(params)
         d, n, dtype = start.draw, self.n_states, params.state_scale.dtype
         if self.along is not None:  # piece by piece along the flight from launch, beam off
             pre_control = params.control_start_s - params.delay[d, 0].astype(dtype) * params.dt
@@ -646,8 +661,20 @@ class SailEnv(environment.Environment[EnvState, EnvParams]):
         info = {**jax.vmap(self.scores)(state), "terminated": done, "truncated": truncated, "final_observation": obs_st}
         return pick(obs_re, obs_st), jax.tree.map(pick, state_re, state), state.reward, done, truncated, info
 
+    def _check_params(self, params: EnvParams) -> None:
+        """``ValueError`` for params of another variant (:func:`variant_of`; static, so decided when traced)."""
+        if params.variant != self.variant:
+            differ = [f"{name} {theirs!r} (this env: {ours!r})" for (name, theirs), (_, ours) in
+                      zip(params.variant, self.variant) if theirs != ours] or ["params built by another version"]
+            raise ValueError(f"params: made for another variant of the task ({'; '.join(differ)}): make the env and "
+                             f"its params together, env, params = sail_env.jax.make(env_id, **keywords)")
+
     def _window_step(self, state: EnvState, action: jax.Array, noise: StepNoise, params: EnvParams) -> EnvState:
-        """The window's step alone (:meth:`advance` without the coast and the score)."""
+        """The window's step alone (:meth:`advance` without the coast and the score); ``ValueError`` for an
+        action that is not (m,) (decided when traced: JAX would broadcast it) or params of another variant."""
+        if jnp.shape(action) != (self.n_inputs,):
+            raise ValueError(f"action must have shape ({self.n_inputs},), got {jnp.shape(action)}")
+        self._check_params(params)
         d, now = state.draw, state.time
         lag0 = params.delay[d, 0] if self.delayed else 0
         command = jnp.clip(jnp.asarray(action, params.action_scale.dtype), -1.0, 1.0) * params.action_scale

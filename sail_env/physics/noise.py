@@ -99,14 +99,14 @@ def held_input_generator(a: np.ndarray, b: np.ndarray, noise: WhiteNoise, push: 
     for every held input at once (the JAX backend's fast coast). ``xp`` as :func:`moment_generator`'s."""
     n, m = b.shape[-2:]
     held = m if held is None else held
-    b_held = _placed(xp.zeros((*b.shape[:-2], n + held, m)), np.s_[..., :n, :], b)
+    b_held = _placed(xp.zeros((*b.shape[:-2], n + held, m), b.dtype), np.s_[..., :n, :], b)
     a_push, b_push = push
-    held_push = (augmented(a_push, b_push[..., :held], xp), _placed(xp.zeros(b_held.shape), np.s_[..., :n, :], b_push))
+    held_push = (augmented(a_push, b_push[..., :held], xp), _placed(xp.zeros(b_held.shape, b.dtype), np.s_[..., :n, :], b_push))
     held_state_psd = None
     if state_psd is not None:
-        held_state_psd = _placed(xp.zeros((*np.shape(state_psd)[:-2], n + held, n + held)), np.s_[..., :n, :n],
+        held_state_psd = _placed(xp.zeros((*np.shape(state_psd)[:-2], n + held, n + held), a.dtype), np.s_[..., :n, :n],
                                  state_psd)
-    at_one = np.concatenate([np.zeros(held), np.ones(m - held)])
+    at_one = np.concatenate([np.zeros(held), np.ones(m - held)]).astype(a.dtype)
     return moment_generator(augmented(a, b[..., :held], xp), b_held, at_one, noise, held_push, jitter_inputs,
                             jitter_psd, held_state_psd, xp=xp)
 
@@ -180,17 +180,17 @@ def moment_matrices(a: np.ndarray, b: np.ndarray, action: np.ndarray, noise: Whi
     a_push, b_push = push
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2], np.shape(action)[:-1])
     n = a.shape[-1]
-    drift = _placed(xp.zeros((*batch, n + 1, n + 1)), np.s_[..., :n, :n], a)
+    drift = _placed(xp.zeros((*batch, n + 1, n + 1), a.dtype), np.s_[..., :n, :n], a)
     drift = _placed(drift, np.s_[..., :n, n], xp.einsum("...ij,...j->...i", b, action))
-    mult = _placed(xp.zeros((*batch, n + 1, n + 1)), np.s_[..., :n, :n], a_push)
+    mult = _placed(xp.zeros((*batch, n + 1, n + 1), a.dtype), np.s_[..., :n, :n], a_push)
     mult = _placed(mult, np.s_[..., :n, n], xp.einsum("...ij,...j->...i", b_push, action))
     drift = drift + 0.5 * noise.push_psd_s * mult @ mult
     psd = noise.beam_jitter_psd_m2s if jitter_psd is None else xp.asarray(jitter_psd)[..., None, None]
-    jitter_b = xp.zeros((*b.shape[:-2], n + 1, b.shape[-1]))  # the constant row feels no jitter
+    jitter_b = xp.zeros((*b.shape[:-2], n + 1, b.shape[-1]), b.dtype)  # the constant row feels no jitter
     jitter_b = _placed(jitter_b, np.s_[..., :n, :], b)
     additive = sum(psd * jitter_b[..., :, None, column] * jitter_b[..., None, :, column] for column in jitter_inputs)
     if state_psd is not None:
-        additive = additive + _placed(xp.zeros((*np.shape(state_psd)[:-2], n + 1, n + 1)), np.s_[..., :n, :n],
+        additive = additive + _placed(xp.zeros((*np.shape(state_psd)[:-2], n + 1, n + 1), a.dtype), np.s_[..., :n, :n],
                                       state_psd)
     return drift, mult, xp.broadcast_to(additive, (*np.shape(additive)[:-2], n + 1, n + 1))
 

@@ -151,6 +151,65 @@ def test_gymnasium_functional_envs_play_the_same_episodes() -> None:
         gym.make("jax/LightSail-v0", render_mode="human")
 
 
+def test_the_functional_envs_refuse_what_they_cannot_play() -> None:
+    """Gymnasium's route refuses, as the Numba envs do, a step after the episode's end (it played steps
+    201–203 and scored them again), actions of another shape (broadcast) or not finite; its vector env
+    resets an ended episode on the next step (it crashed there, indexing the state as one array)."""
+    import gymnasium as gym
+
+    env = gym.make("jax/LightSail-v0")
+    env.reset(seed=0)
+    for bad, message in ((np.zeros(1), r"shape \(2,\)"), (0.5, r"shape \(2,\)"), (np.array([np.nan, 0.0]), "finite")):
+        with pytest.raises(ValueError, match=message):
+            env.step(bad)
+    for _ in range(200):
+        *_, terminated, _, info = env.step(np.zeros(2, np.float32))
+    assert terminated
+    with pytest.raises(RuntimeError, match="finished episode"):
+        env.step(np.zeros(2, np.float32))
+    envs = gym.make_vec("jax/LightSail-v0", num_envs=3)
+    envs.reset(seed=1)
+    for step in range(202):
+        obs, reward, terminated, _, _ = envs.step(np.zeros((3, 2), np.float32))
+        assert bool(np.all(terminated)) == (step == 199), step
+    assert float(obs[0, -1]) == np.float32(-1.0 + 2 / 200) and np.all(np.isfinite(np.asarray(obs)))  # one step into the next
+    for num_envs in (0, -1):
+        with pytest.raises(ValueError, match="num_envs must be an int >= 1"):
+            gym.make_vec("jax/LightSail-v0", num_envs=num_envs)
+
+
+def test_a_coast_along_the_flight_plays_in_float32() -> None:
+    """``make(..., dtype=float32)`` on a task whose coast follows the flight (its reset failed: float64
+    crept into the scan's carry from the noise's generator, the payload's torque and the impacts)."""
+    env, params = sail_env.jax.make("LightSailUncertain-v2", dtype=jnp.float32, draws=8)
+
+    def one(state: object, key: jax.Array) -> tuple:
+        _, state, reward, _, _, info = env.step(key, state, jnp.zeros(env.num_actions, jnp.float32), params)
+        return state, (reward, info["terminal_pointing_rad"])
+
+    _, state = env.reset(jax.random.key(0), params)
+    keys = jax.random.split(jax.random.key(1), params.max_steps_in_episode)
+    state, (reward, pointing) = jax.jit(lambda s: jax.lax.scan(one, s, keys))(state)
+    assert state.x.dtype == reward.dtype == jnp.float32
+    assert 1e-10 < float(pointing[-1]) < 1e-5  # scored at cut-off, finite
+
+
+def test_params_of_another_variant_and_actions_of_another_shape_are_refused() -> None:
+    """gymnax's route: params made with a noise the env does not draw (they played noise-free), and an
+    action of another shape (JAX broadcast it), each one ValueError, under ``jit`` too."""
+    env, params = sail_env.jax.make("LightSail-v0")
+    _, noisy = sail_env.jax.make("LightSail-v0", sensor_noise_std=(1e-2, 1e-2, 1e-3, 1e-6))
+    key = jax.random.key(0)
+    with pytest.raises(ValueError, match=r"^params: made for another variant of the task \(sensor_noise_std True"):
+        env.reset(key, noisy)
+    _, state = env.reset(key, params)
+    with pytest.raises(ValueError, match="another variant"):
+        env.step(key, state, jnp.zeros(2), noisy)
+    for action in (jnp.full((1,), 0.5), jnp.asarray(0.5)):
+        with pytest.raises(ValueError, match=r"action must have shape \(2,\)"):
+            jax.jit(env.step)(key, state, action, params)
+
+
 def test_speed_jax_writes_its_table_between_the_markers(tmp_path) -> None:
     from benchmarks import speed_jax
 

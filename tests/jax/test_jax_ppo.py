@@ -390,6 +390,8 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
     assert "has finished" in capsys.readouterr().err
     assert train_jax.main(["--resume", str(run), "--seeds", "3"]) == 2
     assert "drop --seeds" in capsys.readouterr().err
+    assert train_jax.main(["--resume", str(run), "--first-seed", "0"]) == 2  # a flag at its default is given too
+    assert "drop --first-seed" in capsys.readouterr().err
     assert train_jax.main(["--resume", str(tmp_path)]) == 2
     assert "not a run folder" in capsys.readouterr().err
 

@@ -185,9 +185,10 @@ def payload_term(config: RigidTaskConfig, lin: Linearisation, radiation: np.ndar
     radiation terms see the CoM offset ``x − e_c``, and the push ``F`` through the axis exerts the
     torque ``F e_c`` about y on the CoM (first order in ``e_c``; the inertia tensor's change is second).
     """
-    offset = config.payload_offset_m * config.sail.craft_mass_kg / lin.mass_kg
+    # Python floats (the same values): weakly typed, so that a float32 model stays float32 under JAX.
+    offset = float(config.payload_offset_m * config.sail.craft_mass_kg / lin.mass_kg)
     term = -offset * radiation[..., :, X]
-    torque = xp.asarray(push) * offset / lin.inertia[0, 0]
+    torque = xp.asarray(push) * offset / float(lin.inertia[0, 0])
     if xp is np:
         term[..., OMEGA_Y] += torque
         return term
