@@ -27,6 +27,7 @@ import json
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import jax
@@ -138,15 +139,16 @@ def along_rates(sizes: list[int], steps: int, rounds: int, rows: list[dict]) -> 
                   flush=True)
 
 
-def fast_coast_table(sizes: list[int], steps: int, rounds: int, rows: list[dict]) -> list[str]:
-    """:data:`ALONG_SUBJECTS` on the fast coast (``coast="fast"``) against the default coast at each N, in one
-    process, interleaved (default, fast, …; best of ``rounds``); each call a whole window, so every episode's
-    coast is in it. The table's lines (printed as they come), each row added to ``rows``."""
+def fast_coast_table(sizes: list[int], steps: int, rounds: int, rows: list[dict], tasks: tuple[str, ...] = ALONG_SUBJECTS,
+                     on_row: Callable[[], None] = lambda: None) -> list[str]:
+    """``tasks`` on the fast coast (``coast="fast"``) against the default coast at each N, in one process,
+    interleaved (default, fast, …; best of ``rounds``); each call a whole window, so every episode's coast is
+    in it. The table's lines (printed as they come), each row added to ``rows`` (then ``on_row()``)."""
     lines = ["", "The fast coast against the default coast (one process, interleaved, `step_batch`):", "",
              "| task | N | default env-steps/s | fast env-steps/s | fast ÷ default | fast's build [s] |",
              "|---|---:|---:|---:|---:|---:|"]
     print("\n".join(lines), flush=True)
-    for task in ALONG_SUBJECTS:
+    for task in tasks:
         env, params = sail_env.jax.make(task)
         start = time.perf_counter()
         fast_env, fast_params = sail_env.jax.make(task, coast="fast")
@@ -165,6 +167,7 @@ def fast_coast_table(sizes: list[int], steps: int, rounds: int, rows: list[dict]
                          "fast_build_s": build_s, "fast_draws": int(fast_params.acceleration.shape[0])})
             lines.append(f"| {task} | {envs:,} | {rate:.3g} | {fast_rate:.3g} | {fast_rate / rate:.1f}× | {build_s:.0f} |")
             print(lines[-1], flush=True)
+            on_row()
     return lines
 
 
@@ -209,8 +212,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", type=int, nargs="+", default=SIZES)
     parser.add_argument("--steps", type=int, default=200, help="steps per timed call (default 200)")
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--tasks", nargs="+", choices=SUBJECTS, default=SUBJECTS,
-                        help="the tasks of the tables (default: all four)")
+    parser.add_argument("--tasks", nargs="+", choices=SUBJECTS + ALONG_SUBJECTS,
+                        help=f"the tasks of the tables (default: {', '.join(SUBJECTS)}; with --fast-coast "
+                             f"{', '.join(ALONG_SUBJECTS)})")
     parser.add_argument("--quick", action="store_true", help="N = 10^3 and 10^4, 2 rounds")
     parser.add_argument("--out", type=Path, help="write every round as JSON here")
     parser.add_argument("--readme", type=Path, help="put the tables between this markdown file's markers")
@@ -221,16 +225,31 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fast-coast", type=int, nargs="+", metavar="N",
                         help=f"only {', '.join(ALONG_SUBJECTS)}: the fast coast against the default at these N")
     args = parser.parse_args(argv)
+    for flag, sizes in (("--sizes", args.sizes), ("--fast-coast", args.fast_coast), ("--along-sizes", args.along_sizes)):
+        if sizes and min(sizes) < 1:
+            return cli.fail(cli.UsageError(f"{flag}: N must be >= 1, got {min(sizes)}"))
+    for flag, value in (("--steps", args.steps), ("--rounds", args.rounds)):
+        if value < 1:
+            return cli.fail(cli.UsageError(f"{flag} must be >= 1, got {value}"))
     if args.fast_coast:
-        if min(args.fast_coast) < 1:
-            return cli.fail(cli.UsageError(f"--fast-coast: N must be >= 1, got {min(args.fast_coast)}"))
-        rows = []
-        fast_coast_table(args.fast_coast, args.steps, args.rounds, rows)
-        if args.out:
-            cli.write_whole(args.out, json.dumps({"device": str(jax.devices()[0].device_kind), "machine": machine(),
-                                                  "jax": jax.__version__, "steps": args.steps, "rows": rows,
-                                                  "date": time.strftime("%Y-%m-%d")}, indent=1))
+        tasks = tuple(args.tasks or ALONG_SUBJECTS)
+        if set(tasks) - set(ALONG_SUBJECTS):
+            return cli.fail(cli.UsageError(f"--tasks: the fast coast is for {', '.join(ALONG_SUBJECTS)}"))
+        rows: list[dict] = []
+
+        def keep() -> None:  # every row as it comes: an interrupted run keeps the rows it measured
+            if args.out:
+                cli.write_whole(args.out, json.dumps({
+                    "device": str(jax.devices()[0].device_kind), "machine": machine(), "jax": jax.__version__,
+                    "steps": args.steps, "rounds": args.rounds, "date": time.strftime("%Y-%m-%d"),
+                    "command": " ".join(["python -m benchmarks.speed_jax", *(sys.argv[1:] if argv is None else argv)]),
+                    "rows": rows}, indent=1))
+
+        fast_coast_table(args.fast_coast, args.steps, args.rounds, rows, tasks, keep)
         return 0
+    args.tasks = tuple(args.tasks or SUBJECTS)
+    if set(args.tasks) - set(SUBJECTS):
+        return cli.fail(cli.UsageError(f"--tasks: the main table's are {', '.join(SUBJECTS)}"))
     if args.readme:
         try:
             cli.readme_around_section(args.readme, README_SECTION)

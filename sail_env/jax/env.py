@@ -325,6 +325,8 @@ def _on_rows(need: jax.Array, function: Any, inputs: tuple) -> Any:
     again unchanged), as many chunks as ``need`` has rows: none on most steps of a batch whose
     episodes end together."""
     envs = need.shape[0]
+    if envs == 0:  # an empty batch: nothing to compute (the chunk's size would be zero)
+        return jax.tree.map(lambda leaf: jnp.zeros(leaf.shape, leaf.dtype), jax.eval_shape(jax.vmap(function), *inputs))
     chunk = min(envs, CHUNK.get(jax.default_backend(), ACCELERATOR_CHUNK))
     rows = jnp.nonzero(need, size=-(-envs // chunk) * chunk, fill_value=0)[0]
     count = jnp.sum(need)

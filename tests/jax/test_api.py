@@ -221,6 +221,9 @@ def test_speed_jax_writes_its_table_between_the_markers(tmp_path) -> None:
     assert "old" not in text and text.startswith("before\n") and text.endswith("after\n")
     assert "| LightSail-v0 | 64 |" in text and "first step of `LightSail-v0`" in text
     assert "LightSail3D-v0" not in text  # only the tasks asked for
+    for argv in (["--sizes", "0"], ["--rounds", "0"], ["--fast-coast", "8", "--tasks", "LightSail-v0"]):
+        assert speed_jax.main([*argv, "--readme", str(doc)]) == 2  # one line, nothing measured or written
+    assert doc.read_text() == text
 
 
 def test_gather_chunk_times_each_size_on_the_same_episodes_and_restores_the_setting(tmp_path) -> None:
@@ -249,3 +252,12 @@ def test_the_readmes_jax_example_prints_what_it_says() -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == printed
+
+
+def test_an_empty_batch_steps_to_empty_arrays() -> None:
+    """``step_batch`` at N = 0 (it divided by a chunk of size zero, and ``speed_jax --sizes 0`` with it)."""
+    env, params = sail_env.jax.make("LightSail-v0")
+    keys = jax.random.split(jax.random.key(0), 0)
+    _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    obs, _, reward, terminated, _, _ = env.step_batch(keys, state, jnp.zeros((0, 2)), params)
+    assert obs.shape == (0, 5) and reward.shape == terminated.shape == (0,)
