@@ -48,7 +48,6 @@ import functools
 import json
 import sys
 import time
-import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -58,7 +57,7 @@ import numpy as np
 import sail_env.jax
 from agents import cli
 from agents.jax_ppo import PPOConfig, RunState, actor_arrays, make_chunks, play_deterministic
-from agents.mlp_policy import POLICY_FILE, save_policy, write_npz
+from agents.mlp_policy import POLICY_FILE, read_npz, save_policy, write_npz
 from agents.training import new_run_dir, point_latest
 from sail_env.jax.env import COASTS, TERMINAL_REWARDS, EnvParams, SailEnv
 from sail_env.tasks import JAX_TASKS
@@ -244,9 +243,9 @@ def save_checkpoint(path: Path, state: RunState, progress: dict[str, Any]) -> No
 def load_checkpoint(path: Path) -> tuple[RunState, dict[str, Any]]:
     """A checkpoint's state and progress, the state's structure that of a fresh run of its settings
     (``ValueError`` if the file does not fit it: another version of the code)."""
-    with np.load(path, allow_pickle=False) as data:
-        progress = json.loads(str(data["progress"]))
-        arrays = [data[f"leaf{i}"] for i in range(len(data.files) - 1)]
+    data = read_npz(path)
+    progress = json.loads(str(data["progress"]))
+    arrays = [data[f"leaf{i}"] for i in range(len(data) - 1)]
     config = config_of(progress["config"])
     template = jax.eval_shape(functools.partial(init_states, env_id=progress["env_id"], config=config,
                                                 options=options_of(progress)), seed_keys(progress["seeds"]))
@@ -342,7 +341,7 @@ def main(argv: list[str] | None = None) -> int:
             checkpoint = resume_point(args.resume)
             try:
                 state, progress = load_checkpoint(checkpoint)
-            except (OSError, ValueError, KeyError, zipfile.BadZipFile) as err:
+            except (OSError, ValueError, KeyError) as err:
                 raise cli.UsageError(f"--resume {args.resume}: cannot read {checkpoint} ({err})") from err
             config, runs_dir, options = config_of(progress["config"]), checkpoint.parent.parent, options_of(progress)
         else:

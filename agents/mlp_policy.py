@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import io
 import json
+import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -40,15 +42,15 @@ class MlpPolicyAgent:
     """
 
     def __init__(self, path: str | Path, name: str | None = None) -> None:
-        with np.load(path, allow_pickle=False) as data:
-            self.meta = json.loads(str(data["meta"]))
-            if self.meta.get("privileged_actor"):
-                raise ValueError(f"{path}: its actor was trained seeing the episode's parameter draw "
-                                 "(--privileged-actor), which no env shows a policy: it plays only in train_jax.py")
-            count = sum(1 for key in data.files if key.startswith("w"))
-            self.layers = [(data[f"w{i}"].astype(np.float64), data[f"b{i}"].astype(np.float64)) for i in range(count)]
-            recurrent = self.meta.get("recurrent", 0)
-            self.gru = {key: data[f"gru_{key}"].astype(np.float64) for key in GRU_ARRAYS} if recurrent else None
+        data = read_npz(path)
+        self.meta = json.loads(str(data["meta"]))
+        if self.meta.get("privileged_actor"):
+            raise ValueError(f"{path}: its actor was trained seeing the episode's parameter draw "
+                             "(--privileged-actor), which no env shows a policy: it plays only in train_jax.py")
+        count = sum(1 for key in data if key.startswith("w"))
+        self.layers = [(data[f"w{i}"].astype(np.float64), data[f"b{i}"].astype(np.float64)) for i in range(count)]
+        recurrent = self.meta.get("recurrent", 0)
+        self.gru = {key: data[f"gru_{key}"].astype(np.float64) for key in GRU_ARRAYS} if recurrent else None
         self.history = int(self.meta.get("history", 1))
         self.episode_mean = bool(self.meta.get("episode_mean", False))
         self.tanh_mean = bool(self.meta.get("tanh_mean", False))
@@ -114,6 +116,16 @@ class MlpPolicyAgent:
 def save_policy(path: Path, arrays: dict[str, np.ndarray], meta: dict) -> None:
     """Write ``arrays`` (as float32) and ``meta`` to ``path`` whole or not at all (:func:`agents.cli.write_whole`)."""
     write_npz(path, {"meta": np.array(json.dumps(meta)), **{k: v.astype(np.float32) for k, v in arrays.items()}})
+
+
+def read_npz(path: str | Path) -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` file, read now; ``ValueError`` naming the file for one that is empty,
+    cut short or no ``.npz`` at all (NumPy's ``EOFError``, ``BadZipFile`` and the like)."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {key: data[key] for key in data.files}
+    except (EOFError, zipfile.BadZipFile, zlib.error, ValueError) as err:
+        raise ValueError(f"{path}: empty, cut short or not an .npz file ({type(err).__name__}: {err})") from err
 
 
 def write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:

@@ -30,6 +30,7 @@ import numpy as np
 import sail_env  # noqa: F401
 from agents.evaluation import make_agent
 from agents.oracle import attach
+from agents.sb3 import ModelLoadError
 from research.action_noise import AGENT as BANK
 from research.action_noise import ENV_ID, play_episodes
 
@@ -88,10 +89,15 @@ def main(argv: list[str] | None = None) -> list[tuple[str, int, float, float]]:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--last", type=int, nargs="+", default=[10, 50], help="steps the second agent plays")
     args = parser.parse_args(argv)
-    window = gym.make(ENV_ID).unwrapped.episode_spec.n_steps
+    env = gym.make(ENV_ID)
+    window = env.unwrapped.episode_spec.n_steps
     for last in args.last:
         if not 0 < last < window:
             parser.error(f"--last {last}: the window has {window} steps, K must be in [1, {window - 1}]")
+    try:  # before the table's header: a policy that cannot be read is one line
+        make_agent(args.policy, env)
+    except (ModelLoadError, ValueError) as err:
+        parser.error(f"--policy {err}")
     print(f"{ENV_ID}, {args.policy} and {BANK}, {args.episodes} episodes per row\n")
     print("| who steers | last K steps | success | median terminal pointing |")
     print("|---|---:|---:|---:|")

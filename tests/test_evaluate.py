@@ -169,6 +169,16 @@ def test_a_missing_model_is_named_with_the_models_its_folder_holds(model: Path, 
 
 
 # ---------------------------------------------------------------------- command-line errors
+@pytest.mark.parametrize("content", [b"", b"PK\x03\x04 cut short"])
+def test_an_empty_or_cut_policy_npz_is_one_line(content: bytes, tmp_path: Path, capsys: pytest.CaptureFixture,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """A JAX run's policy.npz that is empty or cut short (EOFError, BadZipFile tracebacks before)."""
+    policy = tmp_path / "policy.npz"
+    policy.write_bytes(content)
+    err = _refused(["--agent", str(policy), "--out", str(tmp_path / "report")], capsys, monkeypatch)
+    assert "empty, cut short or not an .npz file" in err
+
+
 def _refused(argv: list[str], capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> str:
     """Run evaluate.py expecting a refusal before any episode: exit 2, one line on stderr; that line."""
     def no_episodes(*args: object) -> None:

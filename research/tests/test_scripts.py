@@ -119,6 +119,24 @@ def test_handover_refuses_a_handover_outside_the_window(capsys):
     assert "K must be in [1, 199]" in capsys.readouterr().err
 
 
+def test_handover_refuses_a_policy_it_cannot_read_before_its_table(tmp_path, capsys):
+    """A missing or empty policy: one line, no header printed above a traceback."""
+    (tmp_path / "empty.npz").write_bytes(b"")
+    for policy in (tmp_path / "missing.npz", tmp_path / "empty.npz"):
+        with pytest.raises(SystemExit):
+            handover.main(["--policy", str(policy)])
+        captured = capsys.readouterr()
+        assert captured.out == "" and "--policy" in captured.err and "Traceback" not in captured.err
+
+
+def test_actor_average_refuses_a_cut_checkpoint_in_one_line(tmp_path, capsys):
+    from research import actor_average
+
+    (tmp_path / "checkpoint.npz").write_bytes(b"PK\x03\x04 cut short")  # a BadZipFile traceback before
+    assert actor_average.main([str(tmp_path / "checkpoint.npz"), "--out", str(tmp_path / "out.json")]) == 2
+    assert "empty, cut short or not an .npz file" in capsys.readouterr().err
+
+
 def test_actor_average_scores_each_actor_and_the_means_of_the_last(tmp_path, capsys):
     """A run of train_jax.py on LightSail-v0 continued by 4 updates: actors 1 and 3 and the mean of the 4
     scored on the same episodes; the checkpoint is left as it was."""

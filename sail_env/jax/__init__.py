@@ -13,6 +13,8 @@ Numba core's. ``import sail_env`` never imports JAX; ``pip install -e ".[jax]"``
 
 from __future__ import annotations
 
+import re
+import warnings
 from typing import Any
 
 import jax
@@ -49,6 +51,9 @@ def make(env_id: str, dtype: Any = jax.numpy.float64, draws: int | None = None, 
     ============================  ================================================================================="""
     if jax.numpy.dtype(dtype) not in (jax.numpy.float64, jax.numpy.float32):
         raise ValueError(f"dtype must be float64 or float32, got {dtype!r}")
+    if draws is not None and (isinstance(draws, bool) or not isinstance(draws, (int, jax.numpy.integer))):
+        raise ValueError(f"draws must be an int >= 1 (or None: the default bank), got {draws!r}")
+    warn_if_out_of_date(env_id)
     if env_id in PLANAR_TASKS:
         spec = planar_spec(**{**PLANAR_TASKS[env_id], **keywords})
     elif env_id in RIGID3D_TASKS:
@@ -57,3 +62,16 @@ def make(env_id: str, dtype: Any = jax.numpy.float64, draws: int | None = None, 
         raise ValueError(f"the JAX backend has no task {env_id!r}; it has {list(JAX_TASKS)}")
     env = SailEnv(spec, env_id, jax.numpy.dtype(dtype), draws, coast, expected_paths, terminal_reward)
     return env, env.default_params
+
+
+def warn_if_out_of_date(env_id: str) -> None:
+    """One warning, as ``gym.make``'s, where a later version of ``env_id``'s task is registered."""
+    match = re.fullmatch(r"(.+)-v(\d+)", env_id)
+    if match is None:
+        return
+    name, version = match[1], int(match[2])
+    later = [int(other[len(name) + 2:]) for other in {**PLANAR_TASKS, **RIGID3D_TASKS}
+             if re.fullmatch(rf"{re.escape(name)}-v\d+", other) and int(other[len(name) + 2:]) > version]
+    if later:
+        warnings.warn(f"{env_id} is out of date: its latest version is {name}-v{max(later)} (the env docstring's "
+                      f"Version History says what changed)", stacklevel=3)

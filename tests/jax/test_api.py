@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -127,6 +128,18 @@ def test_tasks_the_backend_does_not_carry_are_refused() -> None:
         sail_env.jax.make("CartPole-v1")
     with pytest.raises(ValueError, match="max_beam_offset_m"):
         sail_env.jax.make("LightSail-v0", max_beam_offset_m=-1.0)
+    for draws in (1e4, "64", True):  # NumPy's TypeErrors named nothing
+        with pytest.raises(ValueError, match=r"^draws must be an int >= 1"):
+            sail_env.jax.make("LightSailRealistic-v0", draws=draws)
+
+
+def test_an_out_of_date_id_warns_as_gym_make_does() -> None:
+    with pytest.warns(UserWarning, match="LightSailUncertain-v0 is out of date: its latest version is LightSailUncertain-v2"):
+        sail_env.jax.warn_if_out_of_date("LightSailUncertain-v0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sail_env.jax.warn_if_out_of_date("LightSailUncertain-v2")
+        sail_env.jax.make("LightSail-v0")
 
 
 def test_gymnasium_functional_envs_play_the_same_episodes() -> None:

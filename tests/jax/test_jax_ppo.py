@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -394,6 +395,13 @@ def test_train_jax_resumes_an_interrupted_run_to_the_networks_of_an_uninterrupte
     assert "drop --first-seed" in capsys.readouterr().err
     assert train_jax.main(["--resume", str(tmp_path)]) == 2
     assert "not a run folder" in capsys.readouterr().err
+    emptied = tmp_path / "emptied" / "LightSail-v0-jax_ppo-0"  # the first seed's folder holds the checkpoint
+    shutil.copytree(tmp_path / "parts" / emptied.name, emptied)
+    record = json.loads((emptied / "run.json").read_text())
+    (emptied / "run.json").write_text(json.dumps({**record, "status": "running"}))
+    (emptied / "checkpoint.npz").write_bytes(b"")
+    assert train_jax.main(["--resume", str(emptied)]) == 2  # an EOFError's traceback before
+    assert "empty, cut short or not an .npz file" in capsys.readouterr().err
 
 
 def test_evaluate_reports_a_jax_policy_beside_the_baselines(tmp_path: Path) -> None:
