@@ -21,7 +21,11 @@ if [ -d wheels ]; then
 else
     export PYTHONPATH="$PWD"
 fi
-python3 -c "import jax; print('JAX', jax.__version__, jax.devices())"
+# No GPU, no check: the speed figures below are an accelerator's, and on a CPU the first would run into its
+# timeout after minutes with no word (exit 3, one line, before anything is measured).
+python3 -c "import jax, sys; print('JAX', jax.__version__, jax.devices())
+sys.exit(0 if jax.default_backend() == 'gpu' else
+         'gpu_check.sh: no GPU (JAX sees ' + str(jax.devices()) + '): run it where JAX has its CUDA build')" || exit 3
 timeout 180 python3 -m benchmarks.speed_jax --sizes 10000 100000 1000000 --rounds 2 --out "$out/speed_jax_gpu.json"
 timeout 120 python3 -m benchmarks.speed_jax --along-sizes 16384 --rounds 1 --out "$out/speed_jax_along_gpu.json"
 timeout 90 python3 train_jax.py --env LightSail-v0 --seeds 16 --runs-dir "$out/runs"

@@ -3,10 +3,16 @@ refactoring that breaks them fails here rather than when someone re-measures. Th
 tests are in research/tests/, off the default run."""
 
 import json
+import os
+import subprocess
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from benchmarks import cross_kernel, speed
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_two_blas_kernels_play_the_same_episodes(tmp_path, capsys):
@@ -143,3 +149,12 @@ def test_results_table_goes_between_the_markers_and_a_file_without_them_is_refus
     assert results_table.main(["--readme", str(plain)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no <!-- results-table:start -->" in err and plain.read_text() == "no markers\n"
+
+
+def test_gpu_check_stops_at_once_without_a_gpu(tmp_path: Path) -> None:
+    """On a CPU it said nothing for 180 s, then exited 124: now one line and exit 3, nothing measured."""
+    pytest.importorskip("jax")
+    done = subprocess.run(["bash", str(ROOT / "benchmarks" / "gpu_check.sh")], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, "OUT": str(tmp_path / "out")})
+    assert done.returncode == 3 and "no GPU" in done.stderr
+    assert not (tmp_path / "out" / "speed_jax_gpu.json").exists()
