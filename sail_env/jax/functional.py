@@ -28,6 +28,8 @@ from sail_env.jax.env import EnvParams, EnvState, SailEnv
 
 #: The namespace of the JAX ids: ``jax/LightSail-v0`` is ``LightSail-v0`` on this backend.
 NAMESPACE = "jax"
+#: What a step's info holds before the episode's end (the scores come at its end, as the Gym env's).
+RUNNING_INFO = ("envelope_rad",)
 
 
 class LightSailFunctional(FuncEnv):
@@ -101,7 +103,10 @@ class LightSailJaxEnv(FunctionalJaxEnv, EzPickle):
             raise RuntimeError("step() called before reset()")
         if bool(self.state.terminated):
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        return super().step(checked_actions(action, self.action_space.shape))
+        obs, reward, terminated, truncated, info = super().step(checked_actions(action, self.action_space.shape))
+        if not terminated:  # the scores at the end only, as the Gym env's (before it, NaN: no determinism check holds)
+            info = {key: info[key] for key in RUNNING_INFO}
+        return obs, reward, terminated, truncated, info
 
 
 class LightSailJaxVectorEnv(FunctionalJaxVectorEnv, EzPickle):

@@ -180,6 +180,11 @@ def test_the_functional_envs_refuse_what_they_cannot_play() -> None:
     assert terminated
     with pytest.raises(RuntimeError, match="finished episode"):
         env.step(np.zeros(2, np.float32))
+    from gymnasium.utils.env_checker import check_env
+
+    check_env(gym.make("jax/LightSail-v0").unwrapped)  # its determinism check failed on the NaN scores before the end
+    env.reset(seed=0)
+    assert set(env.step(np.zeros(2, np.float32))[-1]) == {"envelope_rad"}  # the scores come at the end, as the Gym env's
     envs = gym.make_vec("jax/LightSail-v0", num_envs=3)
     envs.reset(seed=1)
     for step in range(202):
