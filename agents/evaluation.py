@@ -111,10 +111,13 @@ def make_agent(spec: str, env: gym.Env, raw_observations_ok: bool = False) -> Ag
 
 
 def load_policy(spec: str, env: gym.Env) -> MlpPolicyAgent:
-    """A ``policy.npz`` of ``train_jax.py`` as an agent named after its run folder (``ModelLoadError``
-    if unreadable or for observations of another size)."""
+    """A ``policy.npz`` of ``train_jax.py`` as an agent named as SB3's models are, ``algo:run/stem`` (so a
+    run's ``policy`` and ``best_policy`` are two agents; ``ModelLoadError`` if unreadable or for observations
+    of another size)."""
+    path = Path(spec).resolve()  # runs/latest/policy.npz is named by the run the link points at now
     try:
-        agent = MlpPolicyAgent(spec, name=Path(spec).resolve().parent.name)
+        agent = MlpPolicyAgent(spec)
+        agent.name = f"{agent.meta.get('algo', 'jax_ppo')}:{path.parent.name}/{path.stem}"
     except (OSError, ValueError, KeyError) as err:
         raise ModelLoadError(f"{spec}: not a policy file of train_jax.py ({err})") from err
     if agent.obs_size != env.observation_space.shape[-1]:
@@ -650,7 +653,10 @@ def play(env: gym.Env, agents: list[Agent], episodes: int, seed: int, progress: 
     results, trajectories = {}, {}
     paths = {"expected_paths": expected_paths} if expected_paths else None
     for agent in agents:
-        results[agent.name] = run_agent(env.spec.id, agent, episodes, seed, progress, paths)
+        try:
+            results[agent.name] = run_agent(env.spec.id, agent, episodes, seed, progress, paths)
+        except ValueError as err:  # an agent's non-finite action: name whose
+            raise ValueError(f"{agent.name}: {err}") from err
         trajectories[agent.name] = run_episode(env, agent, seed, trajectory=True)["trajectory"]
     env.close()
     return results, trajectories

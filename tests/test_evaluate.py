@@ -179,6 +179,29 @@ def test_an_empty_or_cut_policy_npz_is_one_line(content: bytes, tmp_path: Path, 
     assert "empty, cut short or not an .npz file" in err
 
 
+def test_a_runs_policy_and_best_policy_are_two_agents_and_a_nan_one_is_named(tmp_path: Path,
+                                                                               capsys: pytest.CaptureFixture) -> None:
+    """JAX policies are named as SB3's models, ``algo:run/stem`` (a run's two were refused as one name); an
+    agent whose actions are not finite is named in the one-line error (it said "actions must be finite")."""
+    from agents.mlp_policy import save_policy
+
+    run = tmp_path / "LightSail-v0-jax_ppo-0"
+    run.mkdir()
+    for stem, bias in (("policy", 0.0), ("best_policy", 0.1), ("nan_policy", np.nan)):
+        save_policy(run / f"{stem}.npz", {"w0": np.zeros((5, 2)), "b0": np.array([bias, 0.0])},
+                    {"env_id": "LightSail-v0", "algo": "jax_ppo"})
+    assert evaluate.main(["--agent", str(run / "policy.npz"), "--agent", str(run / "best_policy.npz"), "--episodes",
+                          "1", "--out", str(tmp_path / "report"), "--no-progress-bar"]) == 0
+    names = set(_strict_json(tmp_path / "report" / "report.json")["agents"])
+    assert names == {"jax_ppo:LightSail-v0-jax_ppo-0/policy", "jax_ppo:LightSail-v0-jax_ppo-0/best_policy"}
+    capsys.readouterr()
+    assert evaluate.main(["--agent", "lqr", "--agent", str(run / "nan_policy.npz"), "--episodes", "1",
+                          "--out", str(tmp_path / "nan"), "--no-progress-bar"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: jax_ppo:LightSail-v0-jax_ppo-0/nan_policy: action") and "finite" in err
+    assert not (tmp_path / "nan").exists()
+
+
 def _refused(argv: list[str], capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> str:
     """Run evaluate.py expecting a refusal before any episode: exit 2, one line on stderr; that line."""
     def no_episodes(*args: object) -> None:

@@ -200,7 +200,7 @@ def test_a_privileged_critic_sees_its_episodes_draw_and_the_actor_its_observatio
     save_policy(tmp_path / "policy.npz", actor_arrays(network), {"env_id": "LightSailRealistic-v0", "history": 2})
     assert MlpPolicyAgent(tmp_path / "policy.npz").obs_size == obs_size
     oracle = dataclasses.replace(ppo, privileged_actor=True)
-    actor = init_network(jax.random.key(0), obs_size, 1, oracle, plant.n_factors)["actor"]
+    actor = init_network(jax.random.key(0), obs_size, env.num_actions, oracle, plant.n_factors)["actor"]  # (it was 1: broadcast)
     assert 0.0 <= float(play_deterministic(env, params, oracle, actor, jax.random.key(1), 8)[0]) <= 1.0
     save_policy(tmp_path / "oracle.npz", actor_arrays({"actor": actor}),
                 {"env_id": "LightSailRealistic-v0", "history": 2, "privileged_actor": True})
@@ -265,7 +265,7 @@ def test_the_deterministic_play_counts_the_actions_beyond_the_box() -> None:
     or none; none ever with ``tanh_mean``."""
     env, params = sail_env.jax.make("LightSail-v0")
     config = PPOConfig()
-    actor = init_network(jax.random.key(0), OBS, 1, config)["actor"]
+    actor = init_network(jax.random.key(0), OBS, 2, config)["actor"]  # LightSail-v0 has two inputs (1 was broadcast)
     last = {"w": jnp.zeros_like(actor["layers"][-1]["w"]), "b": jnp.zeros_like(actor["layers"][-1]["b"])}
     shares = {}
     for bias in (0.0, 0.9, -1.1, 3.0):
@@ -421,7 +421,7 @@ def test_evaluate_reports_a_jax_policy_beside_the_baselines(tmp_path: Path) -> N
                            str(tmp_path / "report")], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     report = json.dumps(json.loads((tmp_path / "report" / "report.json").read_text()))
-    assert "LightSail-v0-jax_ppo-0" in report and '"memory"' in report
+    assert '"jax_ppo:LightSail-v0-jax_ppo-0/policy"' in report and '"jax_ppo:memory/policy"' in report
     refused = subprocess.run([sys.executable, "evaluate.py", "--env", "LightSailRealistic-v0", "--agent",
                               str(run / "policy.npz"), "--episodes", "1", "--out", str(tmp_path / "other")], cwd=ROOT,
                              capture_output=True, text=True, timeout=300)
