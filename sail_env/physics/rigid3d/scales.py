@@ -4,9 +4,11 @@ Beyond the diffraction length the sail sees its beam's profile widened by ``s = 
 intensity ``/s²`` (:mod:`.beams`): the radiation part of ``A`` and ``B`` (:func:`.linearise`) changes
 with ``s``. The surface quadrature is too slow to repeat along a flight, so :class:`ScaleTable`
 linearises once on a grid of ``ln s`` and interpolates. It interpolates ``s² R(s)`` linearly in
-``ln s`` and divides by ``s²``: a sail inside a uniform spot (a flat-top wider than it, the far
-field of a Gaussian) feels everything in proportion to the intensity ``∝ 1/s²``, for which this is
-exact (raw ``R`` interpolated on the 5 % grid is off by ~1e-3 there). A hard beam edge that meets
+``ln s`` and divides by ``s²``: a sail inside a uniform spot (a flat-top wider than it) feels
+everything in proportion to the intensity ``∝ 1/s²``, for which this is exact (raw ``R`` interpolated on
+the 5 % grid is off by ~1e-3 there). A Gaussian's far field is not uniform to the sail's lateral
+stiffness, which only the intensity's curvature makes (``∝ 1/s⁴``; the tilt terms and the push
+``∝ 1/s²``): there the interpolation is within ~1e-3 of each entry (docs/physics.md §16). A hard beam edge that meets
 the rim as the spot widens changes the stiffnesses discontinuously: the grid keeps clear of such
 scales and never interpolates across them.
 """

@@ -9,7 +9,7 @@ that, per episode, and none is observed (sizes: the task's, :data:`TASK_UNCERTAI
 | dish curvature ``R`` under load | ``R₀ (1 ± 0.2)`` | a membrane under light pressure billows to the shape its tension and the pressure set (Laplace: ``R = 2T/p``); the tension of a nm-thick film at ~1000 K is known to tens of per cent | Campbell et al. 2022 (sails must billow; the shape is set under load); ±20 % is a **guess** for the tension's uncertainty |
 | absorptivity ``α`` | ``α₀ (1 ± 0.5)`` | manufacturing (film thickness, dopants) and contamination (outgassing, dust) change the absorption of a thin film by factors | Ilic & Atwater 2019 (absorption is set by impurities and thickness); ±50 % is a **guess** |
 | power reaching the sail | ``P₀ (1 ± 0.2)`` | atmospheric transmission (water vapour, aerosols) and the adaptive optics' Strehl ratio of an upward beam, which the station cannot measure at the sail | Lubin 2016 (transmission and Strehl of the ground array); ±20 % is an **estimate** of their variation between nights |
-| a constant beam offset at the sail | ``± 1 cm`` per axis | the calibration of the array's absolute pointing: 2 nrad at the 5,000 km of the window is 1 cm | a **guess** (half the largest beam command) |
+| a constant beam offset at the sail | ``± 1 cm`` per axis | an offset fixed at the sail (its optical centre's, say), sized as 2 nrad of the array's pointing at the window's 5,000 km; a pointing calibration error would be an angle that a beam-rider follows, another model (docs/physics.md §16) | a **guess** (half the largest beam command) |
 
 They act on top of the realistic task's ±10 % spread of mass, inertia and beam power, which the station
 also does not observe. Every draw is cheap: no surface quadrature runs at a reset.
@@ -26,9 +26,11 @@ also does not observe. Every draw is cheap: no surface quadrature runs at a rese
 The draw's terms enter the model as differences from the nominal sail's, so a draw of all ones is
 exactly the nominal model. In a spot widened beyond ``L0`` the difference is the drawn sail's own in that
 spot (:class:`WidenedCurvatureTable`: the 9 radii at every point of the widened spot's grid): against a
-``RigidPlant`` of the drawn sail (R ×1.15, α ×1.4, power ×0.85) the coast's radiation terms are 6e-5 off
-at ``s = 1.03``, 4e-4 at 1.24 and 6e-3 at 1.79 (the draw flies the nominal push law scaled by its ``F/m``,
-so its spot is a little off that sail's own flight's). ``LightSailUncertain-v1`` (``v1_widening``) added
+direct quadrature of the drawn sail in that spot each entry is within 1e-3 (``∂v̇x/∂θy`` 3.5e-3), nearly all
+of it the interpolation in ``ln s`` the nominal ``ScaleTable`` shares; against a ``RigidPlant`` of the drawn
+sail (R ×1.15, α ×1.4, power ×0.85), which shares it too, 6e-5 off at ``s = 1.03``, 4e-4 at 1.24 and 6e-3
+at 1.79 (the draw flies the nominal push law scaled by its ``F/m``, so its spot is a little off that sail's
+own flight's: docs/physics.md §16). ``LightSailUncertain-v1`` (``v1_widening``) added
 the difference at ``s = 1`` undiminished instead: first order in the draw times the widening, 1.3 % off at
 ``s = 1.03``, 17 % at 1.24 (the task's fastest draws reach 1.38 by the latest cut-off; ~19 % of its
 episodes widen before cut-off) and 3.8 times the terms at 1.79.
