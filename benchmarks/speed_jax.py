@@ -87,9 +87,10 @@ def rollout(env, params, envs: int, steps: int, continuous: bool, batched: bool 
     return lambda key: compiled(key, params)
 
 
-def timed(function, key) -> float:
+def timed(function, *args) -> float:
+    """Seconds of one call, its results waited for."""
     start = time.perf_counter()
-    jax.block_until_ready(function(key))
+    jax.block_until_ready(function(*args))
     return time.perf_counter() - start
 
 

@@ -25,16 +25,10 @@ import numpy as np
 
 import train_jax
 from agents import cli
+from benchmarks.speed_jax import timed
 from sail_env.provenance import machine
 
 COASTS = ("default", "fast")
-
-
-def timed(function, *args) -> float:
-    """Seconds of one call, its results waited for."""
-    start = time.perf_counter()
-    jax.block_until_ready(function(*args))
-    return time.perf_counter() - start
 
 
 def main(argv: list[str] | None = None) -> int:
